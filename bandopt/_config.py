@@ -1,0 +1,23 @@
+"""Process-wide JAX settings: CPU, float64, persistent compilation cache."""
+
+import os
+from pathlib import Path
+
+
+def configure(*, x64: bool = True, cache_dir: str | os.PathLike | None = None) -> None:
+    """Put JAX on the CPU in float64 with the compilation cache on.
+
+    Call once at the start of a program (the CLI, experiments and tests do).
+    The cache lives in `$BANDOPT_JAX_CACHE` or `~/.cache/bandopt/jax`.
+    """
+    os.environ.setdefault("JAX_PLATFORMS", "cpu")
+    import jax
+
+    jax.config.update("jax_enable_x64", x64)
+    if cache_dir is None:
+        cache_dir = os.environ.get(
+            "BANDOPT_JAX_CACHE", Path.home() / ".cache" / "bandopt" / "jax"
+        )
+    Path(cache_dir).mkdir(parents=True, exist_ok=True)
+    jax.config.update("jax_compilation_cache_dir", str(cache_dir))
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)

@@ -1,0 +1,22 @@
+import os
+
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+import bandopt  # noqa: E402
+import jax  # noqa: E402
+import pytest  # noqa: E402
+
+
+bandopt.configure()
+jax.config.update("jax_numpy_rank_promotion", "raise")
+
+
+@pytest.fixture(scope="session")
+def shared_dir():
+    """`../shared` beside the checkout (test-only data; never read by the package)."""
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1].parent / "shared"
+    if not path.is_dir():
+        pytest.skip("../shared is not beside this checkout")
+    return path
