@@ -1,0 +1,173 @@
+"""The lamp library: counts, typology, deduplication, units, NIR extension flags."""
+
+import colour
+import numpy as np
+import pytest
+from colour.colorimetry.datasets.light_sources import sds as light_sources
+
+from bandopt.datasets import lamps
+from bandopt.datasets.lamps import LEVEL1, LEVEL2, library
+
+
+@pytest.fixture(scope="module")
+def lib():
+    return library()
+
+
+def test_at_least_60_distinct_measured_lamps(lib):
+    measured = [r for r in lib.records if not r.modelled]
+    assert len(measured) >= 60
+    assert len({r.id for r in lib.records}) == len(lib.records)
+
+
+def test_identifiers_are_the_fixed_ones(lib):
+    for r in lib.records:
+        assert r.level1 in LEVEL1
+        assert r.level2 is None or r.level2 in LEVEL2
+        if r.level2 is not None:
+            assert lamps.LEVEL2_PARENT[r.level2] == r.level1
+
+
+def test_every_class_the_sources_allow_is_present(lib):
+    present = {r.level2 for r in lib.records if not r.modelled}
+    # led_amber: no amber LED in any source here -> listed with 0 lamps, insufficient.
+    for l2 in set(LEVEL2) - {"led_amber"}:
+        assert l2 in present, l2
+    counts = {c["level2"]: c for c in lib.counts()}
+    assert counts["led_amber"]["lamps"] == 0
+    assert counts["led_amber"]["status"] == "insufficient for scoring"
+
+
+def test_insufficient_classes_follow_the_rule(lib):
+    counts = {c["level2"]: c["lamps"] for c in lib.counts() if c["level2"]}
+    for l2, n in counts.items():
+        assert (l2 in lib.insufficient) == (n < lamps.MIN_LAMPS_FOR_SCORING)
+    scored = lib.select(scored_only=True)
+    assert all(r.level2 not in lib.insufficient for r in scored.records)
+    assert all(r.level2 != "led_rgb" and r.excluded is None for r in scored.records)
+
+
+def test_known_duplicate_removed(lib):
+    # NIST "Incandescent" and Philips "60 A/W (Soft White)" are the same lamp.
+    ids = set(lib.ids)
+    assert ("nist_traditional_incandescent" in ids) != ("nist_philips_60_a_w_soft_white" in ids)
+    a = light_sources.SDS_LIGHT_SOURCES_NIST_TRADITIONAL["Incandescent"].values
+    b = light_sources.SDS_LIGHT_SOURCES_NIST_PHILIPS["60 A/W (Soft White)"].values
+    np.testing.assert_allclose(a / a.sum(), b / b.sum(), rtol=0.03)
+
+
+def test_no_remaining_pair_is_a_duplicate(lib):
+    measured = lib.select()
+    w = measured.wavelength_nm
+    grid = np.arange(380.0, 780.1, 5.0)
+    shapes = np.array([np.interp(grid, w, v) for v in measured.values])
+    shapes /= np.trapezoid(shapes, grid, axis=1)[:, None]
+    for i in range(len(shapes)):
+        d = np.sqrt(np.mean((shapes[i + 1 :] - shapes[i]) ** 2, axis=1))
+        mean = np.mean((shapes[i + 1 :] + shapes[i]) / 2, axis=1)
+        assert np.all(d >= lamps.DUPLICATE_RMS * mean)
+
+
+def test_coloured_tubes_and_rgb_mixes_not_scored(lib):
+    by_id = {r.id: r for r in lib.records}
+    for tube in ("li1800_philips_tld36w_15", "li1800_philips_tld36w_18"):
+        assert by_id[tube].level2 is None and by_id[tube].excluded
+        assert not lib.is_scored(by_id[tube])
+    rgb = [r for r in lib.records if r.level2 == "led_rgb"]
+    assert len(rgb) >= 9 and not any(lib.is_scored(r) for r in rgb)
+
+
+def test_led_warm_cool_split_by_cct(lib):
+    by_id = {r.id: r for r in lib.records}
+    # CIE 015:2018 LED-B1 (2733 K) is warm, LED-B5 (6598 K) cool.
+    assert by_id["cie_led_b1"].level2 == "led_warm"
+    assert by_id["cie_led_b5"].level2 == "led_cool"
+    for r in lib.records:
+        if r.level2 in ("led_warm", "led_cool") and not r.modelled:
+            cct, _ = lamps._cct_duv(
+                lib.wavelength_nm[:401], lib.values[lib.index(r.id), :401]
+            )
+            assert (cct <= lamps.LED_WARM_MAX_CCT_K) == (r.level2 == "led_warm")
+
+
+def test_values_are_per_lumen(lib):
+    v = colour.SDS_LEFS["CIE 1924 Photopic Standard Observer"]
+    w = lib.wavelength_nm
+    vis = w <= 780
+    lum = 683.0 * np.trapezoid(lib.values[:, vis] * v[w[vis]], w[vis], axis=1)
+    np.testing.assert_allclose(lum, 1.0, rtol=1e-12)
+    assert np.all(lib.values >= 0)
+
+
+def test_shape_matches_source_spectrum(lib):
+    sd = light_sources.SDS_LIGHT_SOURCES_NIST_TRADITIONAL["HPS"]
+    row = lib.values[lib.index("nist_traditional_hps")]
+    ratio = row[np.isin(lib.wavelength_nm, sd.wavelengths)] / sd.values
+    ok = sd.values > 0.01 * sd.values.max()
+    np.testing.assert_allclose(ratio[ok], ratio[ok][0], rtol=1e-10)
+
+
+def test_li1800_photon_to_energy(lib, shared_dir):
+    # Raw file value at 820 nm (photon units) -> energy -> same shape as the library.
+    raw = np.loadtxt(shared_dir / "data/lamps_nir_li1800/Osram.Super.Vialox.PRN", comments='"')
+    energy = raw[:, 1] * 119.627 / raw[:, 0]
+    row = lib.values[lib.index("li1800_osram_super_vialox")]
+    at = lambda w, s, x: np.interp(x, w, s)  # noqa: E731
+    np.testing.assert_allclose(
+        at(lib.wavelength_nm, row, 820.0) / at(lib.wavelength_nm, row, 600.0),
+        at(raw[:, 0], energy, 820.0) / at(raw[:, 0], energy, 600.0),
+        rtol=1e-10,
+    )
+
+
+def test_extension_flags_and_switch(lib):
+    off = library(extend_nir=False)
+    for r_on, r_off, v_on, v_off in zip(lib.records, off.records, lib.values, off.values,
+                                        strict=True):
+        beyond = lib.wavelength_nm > r_on.measured_range_nm[1]
+        assert r_on.extended == bool(beyond.any()) and not r_off.extended
+        assert np.all(np.isnan(v_off[beyond])) and np.all(np.isfinite(v_on))
+        inside = ~beyond
+        np.testing.assert_allclose(v_on[inside], v_off[inside], rtol=1e-12)
+    by_id = {r.id: r for r in lib.records}
+    assert by_id["li1800_osram_super_vialox"].extended is False
+    assert by_id["nist_traditional_hps"].extension_validated is True
+    assert by_id["nist_traditional_lps"].extension_validated is False
+    assert by_id["cie_led_b1"].extension_validated is False
+
+
+def test_hps_extension_has_sodium_doublet(lib):
+    row = lib.values[lib.index("nist_philips_c100s54_hps")]
+    w = lib.wavelength_nm
+    nirpart = (w > 780)
+    assert 815 <= w[nirpart][np.argmax(row[nirpart])] <= 822
+
+
+def test_modelled_spectra_labelled_not_counted(lib):
+    modelled = [r for r in lib.records if r.modelled]
+    assert {r.level1 for r in modelled} == {"incandescent", "fire"}
+    total = sum(c["lamps"] for c in lib.counts())
+    assert total == len(lib) - len(modelled)
+
+
+def test_planck_matches_colour(lib):
+    w = np.arange(380.0, 901.0, 5.0)
+    ours = lamps.planck_spectrum(w, 2856.0)  # [W m-2 sr-1 nm-1]
+    # colour's default c2 is the CIE's rounded 1.4388e-2 m K; pass the exact h c / k.
+    c2 = 6.62607015e-34 * 2.99792458e8 / 1.380649e-23
+    ref = colour.colorimetry.planck_law(w * 1e-9, 2856.0, c2=c2) * 1e-9  # per m -> per nm
+    np.testing.assert_allclose(ours, ref, rtol=1e-6)
+
+
+def test_validation_sets_never_in_library(lib):
+    assert {r.source_set for r in lib.records} <= {
+        "li1800", "nist_philips", "nist_traditional", "nist_led", "cie015", "planck"
+    }
+    assert not any("tm30" in r.id or "lspdd" in r.id or "luxpy" in r.id for r in lib.records)
+
+
+def test_bad_grid_rejected():
+    with pytest.raises(ValueError, match="380-900"):
+        library(wavelength_nm=np.arange(300.0, 901.0, 1.0))
+    with pytest.raises(ValueError, match="uniform"):
+        library(wavelength_nm=np.array([380.0, 381.0, 390.0]))
