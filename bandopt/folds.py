@@ -1,0 +1,113 @@
+"""Lamp-grouped, class-stratified cross-validation and lamp-level bootstrap.
+
+Lamps, not scenarios, are the unit of generalisation: every split assigns
+whole lamps to a side, so a lamp's scenarios (surfaces, atmospheres, Moon,
+classes) never sit on both sides. Splits are stratified by level-2 class:
+within each class the lamps are shuffled (seeded) and dealt round-robin to
+the folds, starting at a random fold, so every fold gets ⌊n/k⌋ or ⌈n/k⌉ lamps
+of every class. Model choices are made on the inner folds of an outer
+training set; outer test folds give the reported errors.
+"""
+
+import dataclasses
+from collections.abc import Sequence
+
+import numpy as np
+
+
+Labels = Sequence[str] | np.ndarray
+"""Class labels, one per lamp."""
+
+
+def stratified_lamp_folds(
+    classes: Labels, n_folds: int, seed: int
+) -> list[np.ndarray]:
+    """Deal lamps (indices into `classes`) into `n_folds` test folds, stratified
+    by class. Returns the sorted lamp indices of each fold."""
+    classes = np.asarray(classes, dtype=object)
+    if n_folds < 2:
+        raise ValueError(f"n_folds must be >= 2, got {n_folds}.")
+    if len(classes) < n_folds:
+        raise ValueError(f"{len(classes)} lamps cannot fill {n_folds} folds.")
+    rng = np.random.default_rng(seed)
+    folds: list[list[int]] = [[] for _ in range(n_folds)]
+    offset = 0
+    for c in sorted(set(classes.tolist())):
+        members = np.flatnonzero(classes == c)
+        rng.shuffle(members)
+        for j, lamp in enumerate(members):
+            folds[(offset + j) % n_folds].append(int(lamp))
+        offset = (offset + len(members)) % n_folds  # balance fold sizes across classes
+    return [np.sort(np.asarray(f, dtype=int)) for f in folds]
+
+
+@dataclasses.dataclass(frozen=True)
+class NestedSplit:
+    """One outer fold: `train` and `test` lamp indices, and the inner
+    (train, validation) splits of `train` for model choices."""
+
+    outer: int
+    train: np.ndarray
+    test: np.ndarray
+    inner: tuple[tuple[np.ndarray, np.ndarray], ...]
+
+
+def nested_lamp_splits(
+    classes: Labels, *, n_outer: int = 3, n_inner: int = 2, seed: int = 0
+) -> list[NestedSplit]:
+    """Nested lamp-grouped, class-stratified splits (indices into `classes`).
+
+    With the smallest scored classes holding 3 lamps, 3 outer x 2 inner folds
+    keep at least one lamp of every class on each side of every split.
+    """
+    classes = np.asarray(classes, dtype=object)
+    out = []
+    for k, test in enumerate(stratified_lamp_folds(classes, n_outer, seed)):
+        train = np.setdiff1d(np.arange(len(classes)), test)
+        inner_folds = stratified_lamp_folds(classes[train], n_inner, seed + 1000 + k)
+        inner = tuple(
+            (np.setdiff1d(train, train[v]), np.sort(train[v])) for v in inner_folds
+        )
+        out.append(NestedSplit(k, train, test, inner))
+    return out
+
+
+def class_balanced_weights(classes: Labels) -> np.ndarray:
+    """Per-item weights so every class weighs the same and weights sum to 1."""
+    classes = np.asarray(classes, dtype=object)
+    uniq, inv, counts = np.unique(classes, return_inverse=True, return_counts=True)
+    return 1.0 / (len(uniq) * counts[inv])
+
+
+def class_balanced_mae(abs_errors: np.ndarray, classes: Labels) -> float:
+    """Mean over classes of the mean absolute error within each class."""
+    w = class_balanced_weights(classes)
+    return float(np.sum(w * np.asarray(abs_errors)))
+
+
+def lamp_bootstrap_ci(
+    lamp_abs_errors: np.ndarray,
+    lamp_classes: Labels,
+    *,
+    n_boot: int = 2000,
+    level: float = 0.95,
+    seed: int = 0,
+) -> tuple[float, float, float]:
+    """Class-balanced MAE and its percentile bootstrap interval, resampling
+    lamps with replacement within each class (lamp-level bootstrap).
+
+    `lamp_abs_errors` is one mean absolute error per lamp (over its scenarios).
+    Returns (estimate, lower, upper).
+    """
+    err = np.asarray(lamp_abs_errors, float)
+    classes = np.asarray(lamp_classes, dtype=object)
+    if err.shape != classes.shape:
+        raise ValueError("lamp_abs_errors and lamp_classes differ in length.")
+    groups = [np.flatnonzero(classes == c) for c in sorted(set(classes.tolist()))]
+    rng = np.random.default_rng(seed)
+    stats = np.empty(n_boot)
+    for i in range(n_boot):
+        stats[i] = np.mean([err[rng.choice(g, size=g.size)].mean() for g in groups])
+    est = float(np.mean([err[g].mean() for g in groups]))
+    a = (1 - level) / 2
+    return est, float(np.quantile(stats, a)), float(np.quantile(stats, 1 - a))

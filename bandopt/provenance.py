@@ -1,0 +1,76 @@
+"""Provenance manifests: what made a result, so any figure can be traced and re-made."""
+
+import datetime as _dt
+import hashlib
+import json
+import platform
+import subprocess
+import sys
+from importlib import metadata
+from pathlib import Path
+
+
+PACKAGES = (
+    "bandopt", "jax", "jaxlib", "equinox", "optimistix", "lineax", "nlopt",
+    "colour-science", "scikit-learn", "numpy", "scipy", "earthlib", "ephem", "pvlib",
+    "matplotlib",
+)
+
+
+def _git(*args: str) -> str | None:
+    try:
+        out = subprocess.run(
+            ["git", *args], capture_output=True, text=True, check=True,
+            cwd=Path(__file__).resolve().parent,
+        )
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    return out.stdout.strip() or None
+
+
+def data_versions() -> dict:
+    """Content hashes of the package data files (lamps, surfaces, atmospheres, Moon)."""
+    root = Path(__file__).parent / "datasets" / "data"
+    out = {}
+    for sub in sorted(p for p in root.iterdir() if p.is_dir()):
+        h = hashlib.sha256()
+        for f in sorted(sub.rglob("*")):
+            if f.is_file():
+                h.update(f.relative_to(root).as_posix().encode())
+                h.update(f.read_bytes())
+        out[sub.name] = h.hexdigest()[:16]
+    return out
+
+
+def manifest(*, seed: int | None = None, config: dict | None = None, **extra) -> dict:
+    """A provenance record: git commit (and whether the tree was dirty), package
+    versions, seed, data versions, command line, machine, time."""
+    versions = {}
+    for name in PACKAGES:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = None
+    status = _git("status", "--porcelain", "--untracked-files=no")
+    return {
+        "git_commit": _git("rev-parse", "HEAD"),
+        "git_dirty": bool(status) if status is not None else None,
+        "packages": versions,
+        "python": sys.version.split()[0],
+        "seed": seed,
+        "data_versions": data_versions(),
+        "command_line": sys.argv,
+        "machine": {"platform": platform.platform(), "processor": platform.machine()},
+        "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "config": config or {},
+        **extra,
+    }
+
+
+def write_manifest(directory: str | Path, **kwargs) -> Path:
+    """Write `manifest.json` into `directory` (created if needed) and return its path."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / "manifest.json"
+    path.write_text(json.dumps(manifest(**kwargs), indent=2, default=str) + "\n")
+    return path
