@@ -1,0 +1,189 @@
+"""`bandopt bands`: print a band set and draw its responses over lamp spectra."""
+
+import json
+import sys
+
+
+def register(subparsers):
+    p = subparsers.add_parser(
+        "bands",
+        help="show a band set (reference sensor name or JSON file)",
+        description=(
+            "Print a band set: each band's centre, FWHM, shape k, half-maximum "
+            "edges and the fraction of its response area outside the 380-900 nm "
+            "data grid, plus the reference sensor's GSD, bit depth, citations and "
+            "how its edges became a response. NAME is a reference sensor "
+            "(viirs-dnb, viirs-dnb-tabulated, dmsp-ols, sac-c, sac-d, cumulos, "
+            "luojia-1-01, aerocube, iss-dslr, jilin-1-03b, eros-b, sdgsat-1, "
+            "nightsat; case and separators ignored) or a JSON file "
+            '{"name", "bands": [{"name", "centre_nm", "fwhm_nm", "shape_k"}]}.'
+        ),
+    )
+    p.add_argument("source", metavar="NAME|FILE", help="reference sensor or JSON file")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="draw the responses over NIST HPS, LPS, metal halide and a white LED",
+    )
+    p.add_argument(
+        "--export-csv",
+        metavar="FILE",
+        help="write each band's response on 380-900 nm at 1 nm as CSV",
+    )
+    p.set_defaults(func=run)
+
+
+def _load(source: str):
+    from pathlib import Path
+
+    from ..sensor import BandSet
+    from ..sensor.reference import resolve
+
+    path = Path(source)
+    if source.lower().endswith(".json") or path.is_file():
+        if not path.is_file():
+            raise FileNotFoundError(f"{source}: no such band-set file")
+        return BandSet.from_json(path), None
+    return resolve(source).build(), resolve(source)
+
+
+def summary(bands, entry) -> dict:
+    """A JSON-ready description of a band set on the library grid."""
+    import numpy as np
+
+    from ..spectra import GRID_1NM
+
+    centre = np.asarray(bands.centre_nm, float)
+    fwhm = np.asarray(bands.fwhm_nm, float)
+    edges = np.asarray(bands.edges_nm, float)
+    k = np.asarray(bands.shape_k, float) if hasattr(bands, "shape_k") else None
+    lost = np.asarray(bands.fraction_outside(GRID_1NM), float)
+    out = {
+        "name": bands.name,
+        "kind": "tabulated" if k is None else "super-gaussian",
+        "grid_nm": [float(GRID_1NM[0]), float(GRID_1NM[-1])],
+        "bands": [
+            {
+                "name": n,
+                "centre_nm": round(float(centre[i]), 3),
+                "fwhm_nm": round(float(fwhm[i]), 3),
+                "shape_k": None if k is None else round(float(k[i]), 4),
+                "half_max_edges_nm": [round(float(e), 3) for e in edges[i]],
+                "fraction_outside_grid": float(f"{lost[i]:.4g}"),
+            }
+            for i, n in enumerate(bands.names)
+        ],
+    }
+    if entry is not None:
+        out.update(
+            key=entry.key,
+            title=entry.title,
+            gsd_m=list(entry.gsd_m),
+            bit_depth=entry.bit_depth,
+            detection_limit_w_m2_sr_nm=entry.detection_limit_w_m2_sr_nm,
+            citations=list(entry.citations),
+            response=entry.response_note,
+            note=entry.note,
+        )
+    if getattr(bands, "source_note", ""):
+        out["table_note"] = bands.source_note
+    return out
+
+
+def _print_table(info: dict) -> None:
+    print(f"{info.get('title', info['name'])}  [{info['kind']}]")
+    head = f"{'band':<14}{'centre':>9}{'FWHM':>9}{'k':>8}{'50% edges':>18}{'lost':>9}"
+    print(head)
+    print("-" * len(head))
+    for b in info["bands"]:
+        k = "tab" if b["shape_k"] is None else f"{b['shape_k']:g}"
+        lo, hi = b["half_max_edges_nm"]
+        print(
+            f"{b['name']:<14}{b['centre_nm']:>9.1f}{b['fwhm_nm']:>9.1f}{k:>8}"
+            f"{lo:>9.1f}-{hi:<8.1f}{100 * b['fraction_outside_grid']:>8.2f}%"
+        )
+    lo, hi = info["grid_nm"]
+    print(
+        f"(centre, FWHM, edges in nm; 'lost': response area outside {lo:g}-{hi:g} nm)"
+    )
+    for field in ("gsd_m", "bit_depth", "detection_limit_w_m2_sr_nm", "citations"):
+        if info.get(field) is not None:
+            print(f"{field}: {info[field]}")
+    for field in ("response", "note", "table_note"):
+        if info.get(field):
+            print(f"{field}: {info[field]}")
+
+
+def _lamps(wavelength_nm):
+    """NIST CQS lamp spectra (colour-science, `Ohno2008a`/`Ohno2008b`), peak 1."""
+    import warnings
+
+    import numpy as np
+
+    from ..spectra import resample
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message='"Matplotlib" related API')
+        import colour
+
+    out = {}
+    for label, key in (
+        ("HPS", "HPS"),
+        ("LPS", "LPS"),
+        ("metal halide", "Metal Halide"),
+        ("white LED (YAG)", "Phosphor LED YAG"),
+    ):
+        sd = colour.SDS_LIGHT_SOURCES[key]
+        v = resample(sd.wavelengths, sd.values, wavelength_nm, outside="nan")
+        out[label] = v / np.nanmax(v)
+    return out
+
+
+def plot(bands, info: dict, path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from ..spectra import GRID_1NM
+
+    wl = np.asarray(GRID_1NM)
+    fig, ax = plt.subplots(figsize=(9, 4.5), constrained_layout=True)
+    shades = ("0.55", "goldenrod", "0.8", "lightsteelblue")
+    for (label, v), shade in zip(_lamps(wl).items(), shades, strict=True):
+        ax.fill_between(
+            wl, 0, v, color=shade, alpha=0.45, lw=0, label=f"{label} (NIST, to 780 nm)"
+        )
+    r = np.asarray(bands.response(wl))
+    colours = plt.get_cmap("tab10")
+    for i, name in enumerate(bands.names):
+        ax.plot(wl, r[i], lw=2, color=colours(i % 10), label=name)
+    ax.set_xlim(wl[0], wl[-1])
+    ax.set_ylim(0, 1.05)
+    ax.set_xlabel("wavelength [nm]")
+    ax.set_ylabel("relative response / lamp spectrum (peak 1)")
+    ax.set_title(info.get("title", info["name"]))
+    ax.legend(fontsize=7, ncol=2, loc="upper right", framealpha=0.9)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def run(args) -> int:
+    from ..sensor import export_response_csv
+
+    bands, entry = _load(args.source)
+    info = summary(bands, entry)
+    if args.json:
+        json.dump(info, sys.stdout, indent=2, ensure_ascii=False)
+        print()
+    else:
+        _print_table(info)
+    if args.export_csv:
+        export_response_csv(bands, args.export_csv)
+        print(f"wrote {args.export_csv}", file=sys.stderr)
+    if args.plot:
+        plot(bands, info, args.plot)
+        print(f"wrote {args.plot}", file=sys.stderr)
+    return 0
