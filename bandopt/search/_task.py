@@ -1,0 +1,375 @@
+"""One band search as a self-contained, JSON-described task.
+
+A task names a scenario preset, a target (`ler`, `g`, `cct`, `all`), a band
+count, a pan mode, an outer fold (or `"final"`: all lamps) and a seed. It
+builds (and caches per process) the scenario context, runs the global search
+(nlopt) and a local polish (optimistix), then scores the bands on the outer
+test lamps with the estimator refitted on the outer training lamps (ridge
+strength chosen on the inner folds). Everything it returns is JSON-ready.
+"""
+
+import dataclasses
+import functools
+import hashlib
+import json
+import time
+
+import jax.numpy as jnp
+import numpy as np
+
+from ..estimate import (
+    LampTable,
+    fit_estimator,
+    lamp_abs_errors,
+    lamp_truth,
+    resolve_target,
+)
+
+
+PRESETS = {
+    # scenario presets: surfaces x atmospheres x moons x classes (scored lamps)
+    "search": dict(
+        surfaces=("asphalt", "concrete_roof_tile", "grass", "soil"),
+        moons=(None, "full"),
+        classes=("P1", "P6"),
+    ),
+    "quick": dict(surfaces=("asphalt", "grass"), moons=(None,), classes=("P4",)),
+    "tiny": dict(surfaces=("asphalt",), moons=(None,), classes=("P4",)),
+}
+"""Scenario presets. Atmospheres: two 6S atmospheres when the tables are
+installed (`ATMOSPHERES_6S`), otherwise none (recorded in every result)."""
+
+ATMOSPHERES_6S = (
+    ("midlatitude_summer", "urban", 23.0),
+    ("tropical", "continental", 10.0),
+)
+
+N_OUTER, N_INNER = 3, 2
+
+
+def atmospheres_available() -> bool:
+    try:
+        from ..datasets import atmosphere
+
+        atmosphere.transmittance(
+            "up", *ATMOSPHERES_6S[0], 0.0, np.array([500.0, 600.0])
+        )
+    except Exception:  # tables missing or being regenerated
+        return False
+    return True
+
+
+@dataclasses.dataclass(frozen=True)
+class Context:
+    """A scenario set ready for searches: spectra `(l, q, w)`, lamp table,
+    nested splits, labels, and the photon-noise setting."""
+
+    preset: str
+    toa: np.ndarray
+    wavelength_nm: np.ndarray
+    table: LampTable
+    lamp_ids: tuple[str, ...]
+    splits: tuple
+    config: dict
+    noise: bool
+    noise_radiance: float | None
+
+    def radiance(self, bands, *, seed: int = 0) -> np.ndarray:
+        """Band-averaged radiance `(N, b)` of every scene for any band set
+        (`BandSet` or `TabulatedBands`; response on the 380-900 nm grid,
+        averaged over its on-grid part), noisy when the context has noise."""
+        from ..sensor import SensorParams
+        from ._problem import band_radiance
+
+        resp = jnp.asarray(bands.response(jnp.asarray(self.wavelength_nm)))
+        toa = self.toa.reshape(-1, self.toa.shape[-1])
+        if self.noise_radiance is not None:
+            toa = _scale_to(toa, self.wavelength_nm, self.noise_radiance)
+        z = None
+        if self.noise:
+            z = jnp.asarray(
+                np.random.default_rng(seed + 7919).standard_normal(
+                    (toa.shape[0], resp.shape[0])
+                )
+            )
+        return np.asarray(
+            band_radiance(
+                jnp.asarray(toa),
+                jnp.asarray(self.wavelength_nm),
+                resp,
+                z,
+                SensorParams() if self.noise else None,
+            )
+        )
+
+
+def _scale_to(toa, wl, level):
+    band = (wl >= 400) & (wl <= 900)
+    return toa * (level / toa[:, band].mean(axis=1))[:, None]
+
+
+def parse_noise(level: str | None) -> tuple[dict, bool, float | None]:
+    """`--noise LEVEL` -> (preset overrides, noise on, radiance level)."""
+    if level is None or str(level).lower() in ("", "none"):
+        return {}, False, None
+    from ..scene import LIGHTING_CLASSES
+
+    key = str(level).strip().upper()
+    if key in LIGHTING_CLASSES:
+        return {"classes": (key,), "moons": (None,)}, True, None
+    try:
+        value = float(level)
+    except ValueError:
+        raise ValueError(
+            f"--noise {level!r}: expected an EN 13201 class "
+            f"{list(LIGHTING_CLASSES)} or a radiance [W m-2 sr-1 nm-1]."
+        ) from None
+    if not value > 0:
+        raise ValueError(f"--noise {level!r}: a radiance level must be > 0.")
+    return {"moons": (None,), "classes": ("P4",)}, True, value
+
+
+@functools.lru_cache(maxsize=8)
+def get_context(
+    preset: str = "search",
+    noise: str | None = None,
+    fold_seed: int = 0,
+    atmospheres: str = "auto",
+) -> Context:
+    """Build (once per process) the scenario context of a preset."""
+    from ..datasets.lamps import library
+    from ..folds import nested_lamp_splits
+    from ..scene import build_scenarios
+    from ._problem import scenario_spectra
+
+    if preset not in PRESETS:
+        raise ValueError(
+            f"Unknown scenario preset {preset!r}; expected one of {list(PRESETS)}."
+        )
+    kw = dict(PRESETS[preset])
+    over, noisy, level = parse_noise(noise)
+    kw.update(over)
+    if atmospheres == "auto":
+        atms = ATMOSPHERES_6S if atmospheres_available() else ("none",)
+    elif atmospheres == "none":
+        atms = ("none",)
+    else:
+        raise ValueError(f"atmospheres must be 'auto' or 'none', got {atmospheres!r}.")
+    scen = build_scenarios(scored_only=True, atmospheres=atms, **kw)
+    lib = library().select(scored_only=True)
+    if tuple(lib.ids) != scen.lamp_ids:
+        raise RuntimeError("scenario lamps and library order differ")
+    truth, valid = lamp_truth(lib.values, lib.wavelength_nm)
+    classes = np.asarray([r.level2 for r in lib.records], dtype=object)
+    toa = scenario_spectra(scen)
+    table = LampTable(
+        np.repeat(np.arange(len(classes)), toa.shape[1]), classes, truth, valid
+    )
+    splits = tuple(
+        nested_lamp_splits(classes, n_outer=N_OUTER, n_inner=N_INNER, seed=fold_seed)
+    )
+    config = {
+        "preset": preset,
+        "scenarios": scen.config,
+        "noise": noise,
+        "n_lamps": len(classes),
+        "scenes_per_lamp": int(toa.shape[1]),
+        "fold_seed": fold_seed,
+        "n_outer": N_OUTER,
+        "n_inner": N_INNER,
+        "atmospheres": [a if isinstance(a, str) else list(a) for a in atms],
+    }
+    return Context(
+        preset,
+        toa,
+        np.asarray(scen.factors.wavelength_nm),
+        table,
+        scen.lamp_ids,
+        splits,
+        config,
+        noisy,
+        level,
+    )
+
+
+def task_id(task: dict) -> str:
+    """Stable file name of a task: readable prefix + hash of its full spec."""
+    h = hashlib.sha1(json.dumps(task, sort_keys=True).encode()).hexdigest()[:10]
+    fold = task.get("fold", "final")
+    kind = task.get("kind", "search")
+    if kind == "reference":
+        return f"ref_{task['sensor']}_{h}"
+    return (
+        f"{task['target']}_n{task['n_bands']}_{task['pan']}_f{fold}_s{task['seed']}_{h}"
+    )
+
+
+DEFAULT_TASK = {
+    "kind": "search",
+    "preset": "search",
+    "noise": None,
+    "fold_seed": 0,
+    "target": "all",
+    "n_bands": 3,
+    "pan": "fixed",
+    "fold": "final",
+    "seed": 0,
+    "algorithm": "mlsl",
+    "max_evals": 600,
+    "local_max_evals": 40,
+    "polish_steps": 40,
+    "degree": 1,
+    "max_fwhm_nm": 200.0,
+    "atmospheres": "auto",
+}
+
+
+def make_task(**kwargs) -> dict:
+    unknown = set(kwargs) - set(DEFAULT_TASK)
+    if unknown:
+        raise ValueError(
+            f"Unknown task fields {sorted(unknown)}; expected {sorted(DEFAULT_TASK)}."
+        )
+    task = {**DEFAULT_TASK, **kwargs}
+    task["target"] = resolve_target(task["target"])
+    return task
+
+
+def _lamps_and_splits(ctx: Context, fold):
+    if fold == "final":
+        lamps = np.arange(ctx.table.n_lamps)
+        splits = [(s.train, s.test) for s in ctx.splits]
+        return lamps, splits, None, None
+    s = ctx.splits[int(fold)]
+    return s.train, list(s.inner), s.train, s.test
+
+
+def evaluate_bands(ctx: Context, bands, *, folds=None, seed: int = 0) -> dict:
+    """Outer-fold test errors of the ridge estimator for a fixed band set.
+
+    For each outer fold (all by default) the estimator is fitted on the outer
+    training lamps (ridge strength and feature degree by inner CV) and scored
+    on its test lamps. Returns `{"lamp_index", "lamp_errors" (l, 3),
+    "fold_of_lamp", "lambdas", "degrees"}`.
+    """
+    rad = ctx.radiance(bands, seed=seed)
+    folds = range(len(ctx.splits)) if folds is None else folds
+    idx, errs, fold_of, lams, degs = [], [], [], [], []
+    for k in folds:
+        s = ctx.splits[k]
+        est = fit_estimator(rad, ctx.table, s.train, s.inner)
+        pred = np.asarray(est.predict(rad))
+        errs.append(lamp_abs_errors(pred, ctx.table, s.test))
+        idx.append(s.test)
+        fold_of.append(np.full(len(s.test), k))
+        lams.append(list(est.lam))
+        degs.append(list(est.degree))
+    return {
+        "lamp_index": np.concatenate(idx).tolist(),
+        "lamp_errors": np.concatenate(errs).tolist(),
+        "fold_of_lamp": np.concatenate(fold_of).tolist(),
+        "lambdas": lams,
+        "degrees": degs,
+    }
+
+
+def run_task(task: dict, progress=None) -> dict:
+    """Run one task (see module docstring) and return its JSON-ready result."""
+    from ..sensor.reference import reference_sensor
+    from ._global import global_search
+    from ._local import bandset_losses, fit_local, free_bandset
+    from ._problem import Space, jitted_losses, make_problem
+
+    t0 = time.perf_counter()
+    ctx = get_context(
+        task["preset"], task["noise"], task["fold_seed"], task["atmospheres"]
+    )
+    if task.get("kind") == "reference":
+        bands = reference_sensor(task["sensor"])
+        ev = evaluate_bands(ctx, bands, seed=task["seed"])
+        return {
+            "task": task,
+            "bands": _describe(bands),
+            **ev,
+            "wall_s": time.perf_counter() - t0,
+            "context": ctx.config,
+        }
+    space = Space(task["n_bands"], pan=task["pan"], max_fwhm_nm=task["max_fwhm_nm"])
+    lamps, splits, _, _ = _lamps_and_splits(ctx, task["fold"])
+    problem = make_problem(
+        ctx.toa,
+        ctx.wavelength_nm,
+        ctx.table,
+        lamps,
+        splits,
+        target=task["target"],
+        space=space,
+        degree=task["degree"],
+        noise=ctx.noise,
+        noise_radiance=ctx.noise_radiance,
+        seed=task["seed"],
+        pad_to=ctx.toa.shape[0] * ctx.toa.shape[1],
+    )
+    value, vg, _ = jitted_losses(problem, space)
+    g = global_search(
+        value,
+        vg,
+        space.dim,
+        algorithm=task["algorithm"],
+        max_evals=task["max_evals"],
+        seed=task["seed"],
+        local_max_evals=task["local_max_evals"],
+    )
+    centre, fwhm = (np.asarray(a) for a in space.physical(jnp.asarray(g.x)))
+    local = None
+    if task["polish_steps"] > 0:
+        loss_b, _ = bandset_losses(space.n_free)
+        lo, _ = space.fwhm_range()
+        init = free_bandset(
+            centre,
+            np.clip(fwhm, lo[0] + 1e-3, None),
+            space.shape_k,
+            min_fwhm_nm=float(lo.min()),
+        )
+        lr = fit_local(
+            loss_b, init, args=problem, solver="bfgs", max_steps=task["polish_steps"]
+        )
+        local = lr.to_dict()
+        if lr.loss < g.loss:
+            centre, fwhm = np.asarray(lr.bands.centre_nm), np.asarray(lr.bands.fwhm_nm)
+    bands = space.band_set(
+        centre, fwhm, name=f"bandopt-{task['target']}-n{task['n_bands']}"
+    )
+    loss = (
+        float(value(jnp.asarray(space.unit(centre, fwhm))))
+        if local is None
+        else min(g.loss, local["loss"])
+    )
+    out = {
+        "task": task,
+        "space": space.to_dict(),
+        "bands": bands.to_dict(),
+        "loss": loss,
+        "spread": np.asarray(problem.spread).tolist(),
+        "global": g.to_dict(),
+        "local": local,
+        "context": ctx.config,
+    }
+    if task["fold"] != "final":
+        out.update(
+            evaluate_bands(ctx, bands, folds=[int(task["fold"])], seed=task["seed"])
+        )
+    out["wall_s"] = time.perf_counter() - t0
+    return out
+
+
+def _describe(bands) -> dict:
+    c = np.asarray(bands.centre_nm, float)
+    f = np.asarray(bands.fwhm_nm, float)
+    return {
+        "name": bands.name,
+        "bands": [
+            {"name": n, "centre_nm": float(c[i]), "fwhm_nm": float(f[i])}
+            for i, n in enumerate(bands.names)
+        ],
+    }
