@@ -1,0 +1,57 @@
+"""Lamp-type classification: scale-free features, one-vs-all KNN (scikit-learn)
+with k chosen by nested lamp-grouped cross-validation, F1 per class, confusion
+matrices, a reject option, and band selection for classification (nlopt
+global search of the real F1; a differentiable soft-nearest-neighbour
+surrogate with optimistix)."""
+
+from ._data import (
+    CONDITIONS as CONDITIONS,
+    LEVELS as LEVELS,
+    ScenarioTable as ScenarioTable,
+    radiance_from_response as radiance_from_response,
+    resolve_level as resolve_level,
+    scenario_table as scenario_table,
+)
+from ._evaluate import (
+    REJECT_GRID as REJECT_GRID,
+    class_order as class_order,
+    evaluate_band_set as evaluate_band_set,
+    outer_splits as outer_splits,
+)
+from ._features import (
+    FEATURE_KINDS as FEATURE_KINDS,
+    deduplicate as deduplicate,
+    features as features,
+)
+from ._knn import (
+    K_GRID as K_GRID,
+    REJECT_THRESHOLD as REJECT_THRESHOLD,
+    UNKNOWN as UNKNOWN,
+    choose_k as choose_k,
+    make_classifier as make_classifier,
+    neighbour_labels as neighbour_labels,
+    reject as reject,
+    vote_proba as vote_proba,
+)
+from ._metrics import (
+    confusion as confusion,
+    f1_from_confusion as f1_from_confusion,
+    reject_curve as reject_curve,
+    scores as scores,
+)
+from ._predict import (
+    TRAINING_SCENARIOS as TRAINING_SCENARIOS,
+    available_atmospheres as available_atmospheres,
+    predict_lamp_types as predict_lamp_types,
+    training_table as training_table,
+)
+from ._search import (
+    SOFT_TEMPERATURE as SOFT_TEMPERATURE,
+    SearchBox as SearchBox,
+    SearchData as SearchData,
+    cv_macro_f1 as cv_macro_f1,
+    nlopt_search as nlopt_search,
+    search_data as search_data,
+    soft_nn_loss as soft_nn_loss,
+    surrogate_search as surrogate_search,
+)

@@ -1,0 +1,218 @@
+"""Nested lamp-grouped evaluation of a band set for lamp-type classification.
+
+For every outer fold of `bandopt.folds.nested_lamp_splits` (stratified by
+level-2 class, the same folds as the band search of issue 5 for the same
+seed): features of the band radiances, k chosen by inner-fold macro F1, the
+one-vs-all KNN fitted on the outer training lamps and applied to the outer
+test lamps. Scores are computed over the pooled outer test predictions (each
+scored lamp is tested exactly once); per-fold macro F1 is reported beside.
+Only scored classes (`LampLibrary.is_scored`) take part.
+"""
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ._data import ScenarioTable, resolve_level
+from ._features import deduplicate, features
+from ._knn import K_GRID, REJECT_THRESHOLD, choose_k, make_classifier, reject
+from ._metrics import reject_curve, scores
+
+
+REJECT_GRID: tuple[float, ...] = (0.0, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
+"""Confidence thresholds of the reported reject curve. [1]"""
+
+
+def class_order(level: str, present: Sequence[str] | np.ndarray) -> list[str]:
+    """Classes of `level` in the library's identifier order, only those present."""
+    from ..datasets.lamps import LEVEL1, LEVEL2
+
+    ref = LEVEL1 if resolve_level(level) == "level1" else LEVEL2
+    present = set(present)
+    return [c for c in ref if c in present]
+
+
+def outer_splits(table: ScenarioTable, seed: int = 0):
+    """The nested lamp splits of the table's lamps, stratified by level 2."""
+    from ..folds import nested_lamp_splits
+
+    return nested_lamp_splits(table.level2, n_outer=3, n_inner=2, seed=seed)
+
+
+def usable_rows(x: np.ndarray, table: ScenarioTable, noise: bool) -> np.ndarray:
+    """Boolean mask: all rows with noise; without noise, one row per group of
+    identical feature rows of a lamp (`deduplicate`)."""
+    keep = np.zeros(table.n_rows, bool)
+    if noise:
+        keep[:] = True
+    else:
+        keep[deduplicate(x, table.lamp)] = True
+    return keep
+
+
+def evaluate_band_set(
+    table: ScenarioTable,
+    bands,
+    *,
+    levels: Sequence[str] | np.ndarray = ("level1", "level2"),
+    noise: bool = True,
+    seed: int = 0,
+    fold_seed: int = 0,
+    kind: str = "log_ratio",
+    k_grid: Sequence[int] | np.ndarray = K_GRID,
+    thresholds: Sequence[float] | np.ndarray = REJECT_GRID,
+    params=None,
+    train_rows: np.ndarray | None = None,
+    test_rows: np.ndarray | None = None,
+    radiance: np.ndarray | None = None,
+    keep_rows: bool = False,
+) -> dict:
+    """Outer-fold scores of one band set (or one band set per outer fold, a
+    sequence, for bands searched inside each fold).
+
+    `train_rows`/`test_rows`: optional boolean row masks (conditions) applied
+    on top of the lamp splits. `radiance`: precomputed `(n, b)` (then `bands`
+    is only used for its length). Returns a JSON-ready dict per level; with
+    `keep_rows`, each level also holds `"rows"`: (row index, true, predicted)
+    arrays of the pooled test rows (not JSON-ready).
+    """
+    splits = outer_splits(table, fold_seed)
+    per_fold_bands = isinstance(bands, (list, tuple))
+    if per_fold_bands and len(bands) != len(splits):
+        raise ValueError(
+            f"bands: {len(bands)} band sets for {len(splits)} outer folds."
+        )
+    all_rows = np.ones(table.n_rows, bool)
+    train_rows = all_rows if train_rows is None else train_rows
+    test_rows = all_rows if test_rows is None else test_rows
+    cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+    def feats(k):
+        b = bands[k] if per_fold_bands else bands
+        key = id(b)
+        if key not in cache:
+            rad = (
+                radiance
+                if radiance is not None
+                else table.band_radiance(b, noise=noise, params=params, seed=seed)
+            )
+            x = np.asarray(features(rad, kind))
+            cache[key] = (x, usable_rows(x, table, noise))
+        return cache[key]
+
+    out = {}
+    for level in map(resolve_level, levels):
+        lamp_cls = table.lamp_classes(level)
+        classes = class_order(level, lamp_cls)
+        cidx = {c: i for i, c in enumerate(classes)}
+        y = np.asarray([cidx[c] for c in table.labels(level)])
+        yt, proba_all, lamp_ids, fold_of, folds, row_idx = [], [], [], [], [], []
+        for s in splits:
+            x, keep = feats(s.outer)
+            k, kscores = choose_k(
+                x, y, table.lamp, s.inner, len(classes), k_grid, rows=keep & train_rows
+            )
+            tr = keep & train_rows & table.rows_of_lamps(s.train)
+            te = keep & test_rows & table.rows_of_lamps(s.test)
+            clf = make_classifier(k).fit(x[tr], y[tr])
+            p = np.zeros((te.sum(), len(classes)))
+            p[:, clf.classes_] = clf.predict_proba(x[te])
+            yt.append(y[te])
+            proba_all.append(p)
+            lamp_ids.append(np.asarray(table.lamp_ids, object)[table.lamp[te]])
+            fold_of.append(np.full(te.sum(), s.outer))
+            row_idx.append(np.flatnonzero(te))
+            fs = scores(
+                np.asarray(classes, object)[y[te]],
+                np.asarray(classes, object)[np.argmax(p, 1)],
+                classes,
+            )
+            folds.append(
+                {
+                    "outer": s.outer,
+                    "k": k,
+                    "inner_macro_f1": kscores,
+                    "macro_f1": fs["macro_f1"],
+                    "accuracy": fs["accuracy"],
+                    "n_train_rows": int(tr.sum()),
+                    "n_test_rows": int(te.sum()),
+                }
+            )
+        yt = np.concatenate(yt)
+        proba = np.concatenate(proba_all)
+        lamp_ids = np.concatenate(lamp_ids)
+        labels_true = np.asarray(classes, object)[yt]
+        pred = np.asarray(classes, object)[np.argmax(proba, 1)]
+        res = scores(labels_true, pred, classes, lamp=lamp_ids)
+        res["reject"] = {
+            "threshold": REJECT_THRESHOLD,
+            **{
+                k: v
+                for k, v in scores(
+                    labels_true, reject(proba, classes, REJECT_THRESHOLD), classes
+                ).items()
+                if k in ("macro_f1", "accuracy", "coverage", "f1")
+            },
+            "curve": reject_curve(labels_true, proba, classes, thresholds),
+        }
+        res["folds"] = folds
+        res["macro_f1_fold_mean"] = float(np.mean([f["macro_f1"] for f in folds]))
+        res["macro_f1_fold_sd"] = float(np.std([f["macro_f1"] for f in folds]))
+        res["n_test_rows"] = len(yt)
+        if keep_rows:
+            res["rows"] = (np.concatenate(row_idx), labels_true, pred)
+        out[level] = res
+    out["config"] = {
+        "noise": noise,
+        "seed": seed,
+        "fold_seed": fold_seed,
+        "features": kind,
+        "k_grid": list(k_grid),
+        "dedup": not noise,
+        "n_outer": len(splits),
+        "n_inner": len(splits[0].inner),
+    }
+    return out
+
+
+def load_band_set(source: str):
+    """A band set from a reference sensor name (`bandopt.sensor.REFERENCE_SENSORS`,
+    case and separators ignored) or a band-set JSON file (`BandSet.from_json`)."""
+    from pathlib import Path
+
+    from ..sensor import BandSet, reference_sensor
+
+    path = Path(source)
+    if str(source).lower().endswith(".json") or path.is_file():
+        if not path.is_file():
+            raise FileNotFoundError(f"{source}: no such band-set file")
+        return BandSet.from_json(path)
+    return reference_sensor(source)
+
+
+def summary(result: dict) -> dict:
+    """The headline numbers of an `evaluate_band_set` result (JSON-ready):
+    per level macro F1 (pooled and fold mean/SD), accuracy, mean per-lamp
+    accuracy, F1 per class, and the reject option at its default threshold."""
+    out = {}
+    for level in LEVEL_KEYS:
+        if level not in result:
+            continue
+        r = result[level]
+        out[level] = {
+            "macro_f1": r["macro_f1"],
+            "macro_f1_fold_mean": r["macro_f1_fold_mean"],
+            "macro_f1_fold_sd": r["macro_f1_fold_sd"],
+            "accuracy": r["accuracy"],
+            "mean_lamp_accuracy": r.get("mean_lamp_accuracy"),
+            "f1": r["f1"],
+            "k": [f["k"] for f in r["folds"]],
+            "reject": {
+                k: r["reject"][k]
+                for k in ("threshold", "coverage", "accuracy", "macro_f1")
+            },
+        }
+    return out
+
+
+LEVEL_KEYS = ("level1", "level2")
