@@ -328,7 +328,8 @@ def test_evaluate_json_schema(tmp_path, capsys):
             "predicted_level2",
         }
         assert set(r["true"]) == set(r["estimate"]) == {"LER", "G", "CCT"}
-        assert r["predicted_level1"] is None and r["predicted_level2"] is None
+        # The HPS lamp is classified with the foundation's identifiers.
+        assert r["predicted_level1"] == "hid" and r["predicted_level2"] == "hps"
         np.testing.assert_allclose(r["true"]["LER"], truth[0, 0], rtol=2e-3)
         assert all(np.isfinite(list(r["estimate"].values())))
     assert out["notes"][0]["nir_extension"] == "hps"

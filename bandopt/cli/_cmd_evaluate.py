@@ -140,7 +140,7 @@ def run(args) -> int:
     vis = (grid >= 380) & (grid <= 780)
     from ..photometry import ler as ler_fn
 
-    rows, notes = [], []
+    rows, notes, band_rad = [], [], []
     for path, (values, note) in zip(args.lamps, lamps, strict=True):
         truth, valid = lamp_truth(values[None], grid)
         # lumens ∝ K_m ∫ V S dλ = LER · ∫ S dλ (380-780 nm)
@@ -149,6 +149,7 @@ def run(args) -> int:
         )
         per_lx = values / lumens  # spectral irradiance per lux [W m-2 nm-1 lx-1]
         toa = e_lx * refl[0] / math.pi * per_lx
+        band_rad.append(wts @ toa)
         est_v = np.asarray(est.predict(jnp.asarray((wts @ toa)[None])))[0]
         t = {
             m: (float(truth[0, i]) if valid[0, i] else None)
@@ -165,6 +166,11 @@ def run(args) -> int:
         )
         if note:
             notes.append(note)
+    from ..classify import predict_lamp_types
+
+    level1, level2 = predict_lamp_types(np.asarray(band_rad), bands)
+    for row, l1, l2 in zip(rows, level1, level2, strict=True):
+        row["predicted_level1"], row["predicted_level2"] = l1, l2
     out = {
         "bands": name,
         "scene": {
