@@ -3,10 +3,11 @@ PY      ?= python3
 VENV    := .venv
 BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
-export JAX_ENABLE_X64 ?= 1
+export JAX_PLATFORMS ?= cpu
 export MPLBACKEND ?= Agg
 
-.PHONY: run test test-slow lint bench atmospheres library clean
+.PHONY: run test test-slow lint bench atmospheres surfaces library ler g cct sweep \
+        compare classify radiometry spatial noise-aware clean
 
 $(STAMP): pyproject.toml requirements.lock
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
@@ -14,28 +15,59 @@ $(STAMP): pyproject.toml requirements.lock
 	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test]'
 	touch $@
 
-run: $(STAMP)  ## set up and run the main job on the built-in data
-	$(BIN)/bandopt library --counts
+run: $(STAMP)  ## set up, then the default band search + comparison with reference sensors
+	$(BIN)/python -m experiments.search run
 
-test: $(STAMP)  ## set up and run the fast test suite
+test: $(STAMP)  ## set up, then the fast test suite (no 6S, no long sweeps, no Monte Carlo)
 	$(BIN)/python -m pytest -q
 
-test-slow: $(STAMP)
+test-slow: $(STAMP)  ## the tests marked slow (6S runs, Monte Carlo renders)
+	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test,atmos,render]'
 	$(BIN)/python -m pytest -q -m slow
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
 
-bench: $(STAMP)  ## benchmarks; ratios written to results/bench/
+bench: $(STAMP)  ## benchmarks; ratios against baselines of the same run in results/bench/
 	$(BIN)/python -m experiments.bench_photometry
+	$(BIN)/python -m experiments.bench_forward
+	$(BIN)/python -m experiments.bench_search
+	$(BIN)/python -m experiments.bench_spatial
 
-atmospheres: $(STAMP)  ## regenerate the 6S transmittance tables (not part of `make test`)
-	$(BIN)/python -m bandopt.datasets._atmosphere_build --check
+atmospheres: $(STAMP)  ## regenerate the 6S tables (about 45 min on 2 cores; never in make test)
 	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test,atmos]'
+	$(BIN)/python -m bandopt.datasets._atmosphere_build --check
 	$(BIN)/python -m bandopt.datasets._atmosphere_build
 
+surfaces: $(STAMP)  ## check the vendored earthlib extract against earthlib
+	$(BIN)/python -m bandopt.datasets._surfaces_build --check
+
 library: $(STAMP)
+	mkdir -p results/library
 	$(BIN)/bandopt library --plot results/library/lamps.png --json > results/library/library.json
+	$(BIN)/bandopt library --counts --json > results/library/counts.json
+
+ler: $(STAMP)
+	$(BIN)/python -m experiments.search ler
+g: $(STAMP)
+	$(BIN)/python -m experiments.search g
+cct: $(STAMP)
+	$(BIN)/python -m experiments.search cct
+sweep: $(STAMP)  ## all targets, n = 1..6 (+ pan)
+	$(BIN)/python -m experiments.search sweep
+compare: $(STAMP)
+	$(BIN)/python -m experiments.search compare
+noise-aware: $(STAMP)
+	$(BIN)/python -m experiments.noise_aware
+
+classify: $(STAMP)
+	$(BIN)/python -m experiments.classify
+
+radiometry: $(STAMP)
+	$(BIN)/python -m experiments.radiometry
+
+spatial: $(STAMP)
+	$(BIN)/python -m experiments.spatial
 
 clean:
 	rm -rf $(VENV) .pytest_cache
