@@ -34,8 +34,8 @@ bench: $(STAMP)  ## benchmarks; ratios against baselines of the same run in resu
 	$(BIN)/python -m experiments.bench_search
 	$(BIN)/python -m experiments.bench_spatial
 
-atmospheres: $(STAMP)  ## regenerate the 6S tables (about 45 min on 2 cores; never in make test)
-	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test,atmos]'
+atmospheres: $(STAMP)  ## regenerate the 6S tables (25-50 min on 2 cores; never in make test)
+	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test,atmos]' || true
 	$(BIN)/python -m bandopt.datasets._atmosphere_build --check
 	$(BIN)/python -m bandopt.datasets._atmosphere_build
 
