@@ -1,0 +1,686 @@
+"""The radiometry experiment: distributions, limits, SNR/NER, bit depth, for
+one band set (and the reference sensors), written to a results folder.
+
+Orchestration only (the physics is in the sibling modules). Used by
+`python -m experiments.radiometry` and `bandopt radiometry`.
+"""
+
+import csv
+import dataclasses
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..scene import DEFAULT_SURFACES, LIGHTING_CLASSES, build_scenarios
+from ..sensor import SensorParams
+from ._background import (
+    BACKGROUND_UNCERTAINTY_FACTOR,
+    NIGHT_SKY_MAG_ARCSEC2,
+)
+from ._distributions import GROUPS, RadianceGroups, distribution_rows, radiance_groups
+from ._limits import (
+    LimitRule,
+    Limits,
+    bits_for_linear,
+    recommend_limits,
+    sensitivity_rows,
+    snr_ner,
+)
+from ._quantisers import LinearQuantiser, SqrtQuantiser, TwoGainQuantiser
+
+
+DEFAULT_BAND_SET = "sdgsat-1"
+"""Band set used for "ours" when results/recommendation.json has no
+"spectral" bands: the SDGSAT-1 Glimmer PAN + blue/green/red set."""
+
+THESIS_MIN_BITS = 12
+"""Thesis Table 4.7 conclusion: 12 bits or more (`DeMeester2019`, abstract). [bit]"""
+
+
+@dataclasses.dataclass(frozen=True)
+class RadiometryConfig:
+    """Scenario sets and settings of the experiment.
+
+    Distribution set (all lamps): `surfaces` (mean reflectances), `atmospheres`
+    (`"all"`: every 6S combination, falling back to `"none"` with a note when
+    the tables are missing), `moons`, `classes` (all EN 13201 classes), direct
+    uplight at `uplight_ratio`, fires at `fire_temperatures_k` burning
+    `fire_fraction` of the pixel with `fire_emissivity`.
+    Bit-depth set (scored lamps only): `eval_*`. Quantisers: linear at
+    `bit_depths`, two-gain and square-root at `companding_bits`.
+    """
+
+    surfaces: tuple[str, ...] = (*DEFAULT_SURFACES, "snow")
+    atmospheres: str | tuple = "all"
+    moons: tuple = (None, "full", "first_quarter")
+    classes: tuple[str, ...] = tuple(LIGHTING_CLASSES)
+    uplight_ratio: float = 0.05
+    fire_temperatures_k: tuple[float, ...] = (
+        700.0,
+        800.0,
+        900.0,
+        1000.0,
+        1100.0,
+        1200.0,
+    )
+    fire_fraction: float = 0.01
+    fire_emissivity: float = 0.9
+    eval_surfaces: tuple[str, ...] = ("asphalt", "road", "sidewalk", "grass")
+    eval_atmospheres: str | tuple = (
+        ("midlatitude_summer", "urban", 23.0),
+        ("tropical", "urban", 5.0),
+    )
+    eval_moons: tuple = (None, "full")
+    eval_classes: tuple[str, ...] = ("P6", "P4", "P1", "C0")
+    bit_depths: tuple[int, ...] = (8, 10, 12, 14, 16)
+    companding_bits: tuple[int, ...] = (8, 10, 12)
+    references: bool = True
+    bit_depth_table: bool = True
+    lamps: tuple[str, ...] | None = None
+    seed: int = 0
+
+    @classmethod
+    def quick(cls, **kw) -> "RadiometryConfig":
+        """A small configuration (seconds): few surfaces, one atmosphere."""
+        base = dict(
+            surfaces=("asphalt", "sidewalk", "snow"),
+            atmospheres="none",
+            classes=("P6", "P1", "C0"),
+            moons=(None, "full"),
+            fire_temperatures_k=(700.0, 1200.0),
+            eval_surfaces=("asphalt", "sidewalk"),
+            eval_atmospheres="none",
+            eval_classes=("P6", "C0"),
+            bit_depths=(8, 12, 16),
+            companding_bits=(8,),
+            references=False,
+        )
+        base.update(kw)
+        return cls(**base)
+
+    def as_dict(self) -> dict:
+        return json.loads(json.dumps(dataclasses.asdict(self), default=str))
+
+
+# ------------------------------------------------------------------------------
+# inputs
+
+
+def resolve_atmospheres(spec) -> tuple[list, str]:
+    """`"all"` -> every 6S combination, `"none"` -> no atmosphere, else the
+    list itself; "all" falls back to "none" when the tables are missing."""
+    from ..datasets import atmosphere as atm
+
+    if isinstance(spec, str) and spec.lower() == "none":
+        return ["none"], "no atmosphere (T = 1, no path radiance)"
+    try:
+        atm.transmittance(
+            "up", "midlatitude_summer", "urban", 23.0, 0.0, np.array([550.0])
+        )
+    except FileNotFoundError as err:
+        return ["none"], f"6S tables missing ({err}); ran without atmosphere"
+    if isinstance(spec, str) and spec.lower() == "all":
+        ids = atm.atmosphere_ids()
+        return list(ids), f"all {len(ids)} 6S combinations"
+    return list(spec), f"{len(spec)} 6S combinations"
+
+
+def default_band_set():
+    from ..sensor import reference_sensor
+
+    return reference_sensor(DEFAULT_BAND_SET)
+
+
+def load_band_set(source: str, *, results_dir: str | Path = "results"):
+    """A band set and its label from `source`: `ours` (the "spectral" bands
+    of results/recommendation.json, else the documented default
+    `DEFAULT_BAND_SET`), a reference sensor name or a band-set JSON file.
+    Returns `(bands, label, note)`."""
+    from ..sensor import BandSet
+    from ..sensor.reference import resolve
+
+    if str(source).strip().lower() in ("ours", "recommended"):
+        path = Path(results_dir) / "recommendation.json"
+        spectral = None
+        if path.is_file():
+            spectral = json.loads(path.read_text()).get("spectral")
+        found = _spectral_bands(spectral, path)
+        if found is not None:
+            return found, "ours", f"bands from {path} key 'spectral'"
+        return (
+            default_band_set(),
+            "ours",
+            f"no 'spectral' bands in {path}: default {DEFAULT_BAND_SET} "
+            "(SDGSAT-1 Glimmer PAN, blue, green, red)",
+        )
+    p = Path(source)
+    if str(source).lower().endswith(".json") or p.is_file():
+        if not p.is_file():
+            raise ValueError(f"{source}: no such band-set file.")
+        return BandSet.from_json(p), p.stem, f"band-set file {p}"
+    entry = resolve(source)
+    return entry.build(), entry.key, entry.title
+
+
+def _spectral_bands(spectral, path):
+    """Find a band set in the "spectral" recommendation: the value itself, or
+    its "bands"/"band_set"/"recommended" entry, in `BandSet.from_dict` form."""
+    from ..sensor import BandSet
+
+    if not isinstance(spectral, dict):
+        return None
+    for cand in (
+        spectral,
+        spectral.get("band_set"),
+        spectral.get("recommended"),
+        spectral.get("bands"),
+    ):
+        if isinstance(cand, list):
+            cand = {"name": "ours", "bands": cand}
+        if isinstance(cand, dict) and isinstance(cand.get("bands"), list):
+            data = {k: v for k, v in cand.items() if k in ("name", "bands", "range_nm")}
+            data["bands"] = [
+                {
+                    k: v
+                    for k, v in b.items()
+                    if k in ("name", "centre_nm", "fwhm_nm", "shape_k", "edges_nm")
+                }
+                for b in data["bands"]
+                if isinstance(b, dict)
+            ]
+            try:
+                return BandSet.from_dict(data, label=f"{path}:spectral")
+            except ValueError:
+                continue
+    return None
+
+
+def distribution_set(config: RadiometryConfig):
+    atms, note = resolve_atmospheres(config.atmospheres)
+    scen = build_scenarios(
+        lamps=config.lamps,
+        surfaces=config.surfaces,
+        atmospheres=atms,
+        moons=config.moons,
+        classes=config.classes,
+        uplight_ratio=config.uplight_ratio,
+        fire_temperatures_k=config.fire_temperatures_k,
+        fire_fraction=config.fire_fraction,
+        fire_emissivity=config.fire_emissivity,
+        seed=config.seed,
+    )
+    return scen, note
+
+
+def evaluation_set(config: RadiometryConfig):
+    atms, note = resolve_atmospheres(config.eval_atmospheres)
+    scen = build_scenarios(
+        lamps=config.lamps,
+        scored_only=config.lamps is None,
+        surfaces=config.eval_surfaces,
+        atmospheres=atms,
+        moons=config.eval_moons,
+        classes=config.eval_classes,
+        seed=config.seed,
+    )
+    return scen, note
+
+
+# ------------------------------------------------------------------------------
+# tables
+
+
+def snr_rows(
+    groups: RadianceGroups, limits: Limits, params: SensorParams, *, band_set: str
+) -> list[dict]:
+    """SNR and NER per band at the background, the scene requirement, the
+    detection limit, lamp-scene percentiles, the median moonlit surface and
+    saturation."""
+    lamp = groups.flat("lamp")
+    levels = {
+        "background": limits.background,
+        "scene_requirement": limits.scene_requirement,
+        "detection_limit": limits.detection_limit,
+        "lamp_p5": np.percentile(lamp, 5, axis=0),
+        "lamp_median": np.median(lamp, axis=0),
+        "lamp_p95": np.percentile(lamp, 95, axis=0),
+        "saturation": limits.saturation,
+    }
+    if groups.moon is not None:
+        levels["moonlit_median"] = np.median(groups.flat("moon"), axis=0)
+    rows = []
+    for level, L in levels.items():
+        res = {
+            k: np.asarray(v)
+            for k, v in snr_ner(L, limits.responsivity_e, params).items()
+        }
+        for j, b in enumerate(limits.band_names):
+            rows.append(
+                {
+                    "band_set": band_set,
+                    "level": level,
+                    "band": b,
+                    "radiance_w_m2_sr_nm": float(L[j]),
+                    "signal_e": float(res["signal_e"][j]),
+                    "noise_e": float(res["noise_e"][j]),
+                    "snr": float(res["snr"][j]),
+                    "ner_w_m2_sr_nm": float(res["ner_w_m2_sr_nm"][j]),
+                }
+            )
+    return rows
+
+
+def quantisers_for(
+    limits: Limits, params: SensorParams, bit_depths, companding_bits
+) -> dict:
+    """label -> (scheme, bits, quantiser) for the bit-depth table."""
+    lo, hi, r = limits.detection_limit, limits.saturation, limits.responsivity_e
+    qs: dict = {
+        "noise-free": ("none-clean", None, None),
+        "noise, no quantisation": ("none", None, None),
+        "noise, clipped to limits, no quantisation": (
+            "clip",
+            None,
+            LinearQuantiser(lo, hi, 16),  # carries the limits only
+        ),
+    }
+    for n in bit_depths:
+        qs[f"linear {n} bit"] = ("linear", n, LinearQuantiser(lo, hi, n))
+    for n in companding_bits:
+        qs[f"two-gain {n} bit"] = (
+            "two-gain",
+            n,
+            TwoGainQuantiser.geometric_knee(lo, hi, n),
+        )
+        qs[f"sqrt {n} bit"] = (
+            "sqrt",
+            n,
+            SqrtQuantiser.for_sensor(lo, hi, r, params, n),
+        )
+    return qs
+
+
+def quantisation_noise_rows(
+    groups: RadianceGroups,
+    limits: Limits,
+    params: SensorParams,
+    quantisers: dict,
+    *,
+    band_set: str,
+) -> list[dict]:
+    """Per quantiser and band: radiance step over photon-model noise and the
+    SNR with quantisation noise (`step²/12` added) at the detection limit,
+    the median lamp scene and saturation."""
+    levels = {
+        "detection_limit": limits.detection_limit,
+        "lamp_median": np.median(groups.flat("lamp"), axis=0),
+        "saturation": limits.saturation,
+    }
+    rows = []
+    for label, (scheme, bits, q) in quantisers.items():
+        if q is None or scheme == "clip":
+            continue
+        for level, L in levels.items():
+            step = np.asarray(q.step(L))
+            base = {
+                k: np.asarray(v)
+                for k, v in snr_ner(L, limits.responsivity_e, params).items()
+            }
+            withq = np.asarray(
+                snr_ner(
+                    L,
+                    limits.responsivity_e,
+                    params,
+                    electrons_per_dn=step * limits.responsivity_e,
+                )["snr"]
+            )
+            for j, b in enumerate(limits.band_names):
+                rows.append(
+                    {
+                        "band_set": band_set,
+                        "quantiser": label,
+                        "scheme": scheme,
+                        "bits": bits,
+                        "level": level,
+                        "band": b,
+                        "radiance_w_m2_sr_nm": float(L[j]),
+                        "step_w_m2_sr_nm": float(step[j]),
+                        "step_over_noise": float(step[j] / base["ner_w_m2_sr_nm"][j]),
+                        "snr_photon": float(base["snr"][j]),
+                        "snr_with_quantisation": float(withq[j]),
+                    }
+                )
+    return rows
+
+
+def recommend_bits(
+    rows: list[dict], *, rel_tol: float = 0.05, f1_tol: float = 0.01
+) -> dict:
+    """Smallest linear bit depth whose LER, G and CCT test MAE are within
+    `rel_tol` (relative) of the unquantised reference (photon noise clipped to
+    the limits, row scheme "clip"; else photon noise alone, "none") and whose
+    macro F1 is at most `f1_tol` below it, for it and every larger depth."""
+    refs = {r["scheme"]: r for r in rows if r["scheme"] in ("clip", "none")}
+    ref = refs.get("clip", refs.get("none"))
+    ok_bits = []
+    for r in sorted(
+        (r for r in rows if r["scheme"] == "linear"), key=lambda r: r["bits"]
+    ):
+        ok = all(
+            r[f"{m}_mae"] <= ref[f"{m}_mae"] * (1 + rel_tol)
+            for m in ("LER", "G", "CCT")
+        )
+        ok &= r["macro_f1"] >= ref["macro_f1"] - f1_tol
+        if ok:
+            ok_bits.append(r["bits"])
+    # the smallest depth from which every larger tested depth also passes
+    linear = sorted(r["bits"] for r in rows if r["scheme"] == "linear")
+    rec = None
+    for n in linear:
+        if all(m in ok_bits for m in linear if m >= n):
+            rec = n
+            break
+    return {
+        "recommended_linear_bits": rec,
+        "rule": (
+            "smallest linear bit depth from which LER, G and CCT class-balanced "
+            f"test MAE stay within {100 * rel_tol:g} % of the unquantised "
+            f"reference ({ref.get('label', ref['scheme'])}) and level-2 macro F1 "
+            f"within {f1_tol:g} of it"
+        ),
+        "passing": ok_bits,
+        "agrees_with_thesis_ge_12_bits": None
+        if rec is None
+        else bool(rec >= THESIS_MIN_BITS),
+    }
+
+
+# ------------------------------------------------------------------------------
+# figures
+
+
+def plot_histograms(
+    groups: RadianceGroups, limits: Limits, path: Path, *, title: str
+) -> Path:
+    """Histograms of log10 band radiance per group, one panel per band, with
+    the detection limit, saturation, scene requirement and background drawn."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    nb = len(groups.band_names)
+    ncol = min(nb, 3)
+    nrow = int(np.ceil(nb / ncol))
+    fig, axes = plt.subplots(
+        nrow, ncol, figsize=(5.2 * ncol, 3.6 * nrow), squeeze=False
+    )
+    colours = {"lamp": "C0", "moon": "C2", "uplight": "C1", "fire": "C3"}
+    all_vals = [groups.flat(g) for g in GROUPS if groups.flat(g) is not None]
+    top = max(max(float(v.max()) for v in all_vals), float(limits.saturation.max()))
+    # left edge 2 decades under the background: darker values (a band a lamp
+    # does not emit in, cold fires) are piled into the first bin
+    lo = np.log10(float(limits.background.min()) / 100.0)
+    hi = np.log10(top * 2)
+    bins = np.linspace(lo, hi, 90)
+    for j, band in enumerate(groups.band_names):
+        ax = axes[j // ncol][j % ncol]
+        for g in GROUPS:
+            v = groups.flat(g)
+            if v is None:
+                continue
+            x = np.log10(np.clip(v[:, j], 10.0**lo, None))
+            ax.hist(
+                x,
+                bins=bins,
+                density=True,
+                histtype="step",
+                color=colours[g],
+                label=f"{g} ({len(x)})",
+            )
+        for val, style, lab in (
+            (limits.detection_limit[j], "-", "detection limit"),
+            (limits.saturation[j], "--", "saturation"),
+            (limits.scene_requirement[j], "-.", "dim-scene requirement"),
+            (limits.background[j], ":", "night-sky background"),
+        ):
+            ax.axvline(max(np.log10(val), lo), color="k", ls=style, lw=1, label=lab)
+        ax.set_xlim(lo, hi)
+        ax.set_title(f"{band} (left bin: everything darker)")
+        ax.set_xlabel("log10 band radiance [W m-2 sr-1 nm-1]")
+        ax.set_ylabel("density")
+        ax.set_yscale("log")
+    for k in range(nb, nrow * ncol):
+        axes[k // ncol][k % ncol].axis("off")
+    axes[0][0].legend(fontsize=7, loc="upper left")
+    fig.suptitle(title)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+# ------------------------------------------------------------------------------
+# output helpers
+
+
+def write_csv(rows: list[dict], path: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    keys: list[str] = []
+    for r in rows:
+        keys += [k for k in r if k not in keys]
+    with path.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys)
+        w.writeheader()
+        for r in rows:
+            w.writerow(
+                {k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()}
+            )
+    return path
+
+
+def _json(obj, path: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(obj, indent=2, default=_default) + "\n")
+    return path
+
+
+def _default(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, np.generic):
+        return o.item()
+    return str(o)
+
+
+def _slug(name: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_" else "_" for c in name)
+
+
+# ------------------------------------------------------------------------------
+# the experiment
+
+
+def analyse(scen, bands, label: str, params: SensorParams, rule: LimitRule) -> dict:
+    """Distributions, limits, sensitivity and SNR/NER of one band set."""
+    from ..forward import cropped
+
+    groups = radiance_groups(scen, bands)
+    f, resp = cropped(scen, bands)
+    limits = recommend_limits(groups, resp, f.wavelength_nm, params, rule)
+    return {
+        "groups": groups,
+        "limits": limits,
+        "distribution": distribution_rows(groups, band_set=label),
+        "limit_rows": limits.rows(band_set=label),
+        "sensitivity": sensitivity_rows(
+            groups, resp, f.wavelength_nm, params, base=rule, band_set=label
+        ),
+        "snr": snr_rows(groups, limits, params, band_set=label),
+        "bits_step_le_ner": bits_for_linear(limits, params),
+    }
+
+
+def run(
+    bands,
+    label: str,
+    out_dir: str | Path,
+    *,
+    config: RadiometryConfig | None = None,
+    params: SensorParams | None = None,
+    rule: LimitRule | None = None,
+    recommend: bool = True,
+    results_dir: str | Path | None = None,
+    note: str = "",
+    log=print,
+) -> dict:
+    """Run the experiment for `bands` and write `out_dir` (tables, figures,
+    manifest); with `recommend`, put the limits and bit depth under key
+    "radiometry" of results/recommendation.json. Returns the summary."""
+    from ..provenance import write_manifest
+    from ..results import update_recommendation
+    from ..sensor import REFERENCE_SENSORS
+    from ._bitdepth import bit_depth_rows
+
+    t0 = time.perf_counter()
+    config = RadiometryConfig() if config is None else config
+    params = SensorParams() if params is None else params
+    rule = LimitRule() if rule is None else rule
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+
+    scen, atm_note = distribution_set(config)
+    log(
+        f"[radiometry] distribution set {scen.shape} ({atm_note}), "
+        f"{time.perf_counter() - t0:.1f} s"
+    )
+    ours = analyse(scen, bands, label, params, rule)
+    results = {label: ours}
+    if config.references:
+        for key, entry in REFERENCE_SENSORS.items():
+            try:
+                results[key] = analyse(scen, entry.build(), key, params, rule)
+            except ValueError as err:
+                log(f"[radiometry] {key}: skipped ({err})")
+        log(f"[radiometry] reference sensors done, {time.perf_counter() - t0:.1f} s")
+
+    dist, lim, sens, snr_tab = [], [], [], []
+    for key, res in results.items():
+        dist += res["distribution"]
+        rows = res["limit_rows"]
+        entry = REFERENCE_SENSORS.get(key)
+        for j, r in enumerate(rows):
+            r["bits_linear_step_le_ner_at_limit"] = int(res["bits_step_le_ner"][j])
+            if entry is not None:
+                r["published_bit_depth"] = entry.bit_depth
+                r["published_detection_limit_w_m2_sr_nm"] = (
+                    entry.detection_limit_w_m2_sr_nm
+                )
+        lim += rows
+        sens += res["sensitivity"]
+        snr_tab += res["snr"]
+        plot_histograms(
+            res["groups"],
+            res["limits"],
+            out / "histograms" / f"{_slug(key)}.png",
+            title=f"{key}: TOA band radiance by scene group",
+        )
+    write_csv(dist, out / "distributions.csv")
+    write_csv(lim, out / "limits.csv")
+    write_csv(sens, out / "sensitivity.csv")
+    write_csv(snr_tab, out / "snr_ner.csv")
+
+    limits = ours["limits"]
+    qs = quantisers_for(limits, params, config.bit_depths, config.companding_bits)
+    qrows = quantisation_noise_rows(ours["groups"], limits, params, qs, band_set=label)
+    write_csv(qrows, out / "quantisation_noise.csv")
+
+    bit_rows, bits_rec, eval_note = [], None, ""
+    if config.bit_depth_table:
+        escen, eval_note = evaluation_set(config)
+        log(f"[radiometry] bit-depth set {escen.shape} ({eval_note})")
+        bit_rows = bit_depth_rows(escen, bands, qs, params, seed=config.seed)
+        write_csv(bit_rows, out / "bit_depth.csv")
+        bits_rec = recommend_bits(bit_rows)
+        log(f"[radiometry] bit depth done, {time.perf_counter() - t0:.1f} s")
+
+    summary = {
+        "band_set": label,
+        "band_set_note": note,
+        "bands": limits.rows(band_set=label),
+        "rule": rule.as_dict(),
+        "rule_text": (
+            "L_min = max(L_req, L_bg) (and L_snr if sensor_limited): L_req the "
+            "dim_percentile over lamps of the dimmest class on the darkest surface "
+            "through the most absorbing atmosphere (per band, moonless); L_bg the "
+            "natural night-sky background; L_snr the radiance where the photon "
+            "model reaches snr_target; the sensor must reach snr_target at L_min "
+            "(snr_at_limit, exposure_factor). L_max = headroom x "
+            "saturation_percentile of lamp scenes (+ direct uplight). Fires apart."
+        ),
+        "background": {
+            "source": "Patat2003 dark-time zenith sky brightness (B, V, R, I) with "
+            "Bessell1998 zero points; context Leinert1998",
+            "mag_arcsec2": NIGHT_SKY_MAG_ARCSEC2,
+            "uncertainty_factor": BACKGROUND_UNCERTAINTY_FACTOR,
+        },
+        "sensor_params": {
+            fld.name: np.asarray(getattr(params, fld.name)).tolist()
+            for fld in dataclasses.fields(params)
+        },
+        "bits_linear_step_le_ner_at_limit": int(np.max(ours["bits_step_le_ner"])),
+        "bit_depth": bits_rec,
+        "bit_depth_table": bit_rows,
+        "atmospheres": atm_note,
+        "bit_depth_set": eval_note,
+        "scenario_shape": list(scen.shape),
+        "config": config.as_dict(),
+        "runtime_s": round(time.perf_counter() - t0, 1),
+    }
+    _json(summary, out / "summary.json")
+    write_manifest(
+        out,
+        seed=config.seed,
+        config={
+            "band_set": label,
+            "band_set_note": note,
+            "rule": rule.as_dict(),
+            "radiometry": config.as_dict(),
+            "atmospheres": atm_note,
+        },
+    )
+    if recommend:
+        update_recommendation(
+            "radiometry",
+            {
+                "band_set": label,
+                "band_set_note": note,
+                "detection_limit_w_m2_sr_nm": dict(
+                    zip(limits.band_names, limits.detection_limit.tolist(), strict=True)
+                ),
+                "saturation_w_m2_sr_nm": dict(
+                    zip(limits.band_names, limits.saturation.tolist(), strict=True)
+                ),
+                "limited_by": dict(
+                    zip(limits.band_names, limits.limited_by, strict=True)
+                ),
+                "snr_at_limit": dict(
+                    zip(limits.band_names, limits.snr_at_limit.tolist(), strict=True)
+                ),
+                "bit_depth": None
+                if bits_rec is None
+                else bits_rec["recommended_linear_bits"],
+                "bit_depth_rule": None if bits_rec is None else bits_rec["rule"],
+                "bits_linear_step_le_ner_at_limit": summary[
+                    "bits_linear_step_le_ner_at_limit"
+                ],
+                "rule": rule.as_dict(),
+                "results": str(out),
+            },
+            results_dir=results_dir,
+        )
+    log(f"[radiometry] wrote {out} in {time.perf_counter() - t0:.1f} s")
+    return summary
