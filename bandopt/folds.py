@@ -19,9 +19,7 @@ Labels = Sequence[str] | np.ndarray
 """Class labels, one per lamp."""
 
 
-def stratified_lamp_folds(
-    classes: Labels, n_folds: int, seed: int
-) -> list[np.ndarray]:
+def stratified_lamp_folds(classes: Labels, n_folds: int, seed: int) -> list[np.ndarray]:
     """Deal lamps (indices into `classes`) into `n_folds` test folds, stratified
     by class. Returns the sorted lamp indices of each fold."""
     classes = np.asarray(classes, dtype=object)

@@ -83,8 +83,13 @@ def simulate(
     weights = band_weights(resp, f.wavelength_nm)
     terms = band_terms(f, weights)
     radiance = lamp_scenes(terms)
-    config = {"noise": noise, "seed": seed, "bits": bits, "crop": crop,
-              "grid_nm": [float(f.wavelength_nm[0]), float(f.wavelength_nm[-1])]}
+    config = {
+        "noise": noise,
+        "seed": seed,
+        "bits": bits,
+        "crop": crop,
+        "grid_nm": [float(f.wavelength_nm[0]), float(f.wavelength_nm[-1])],
+    }
     electrons = None
     if noise:
         pw = photon_weights(resp, f.wavelength_nm, params, None)
@@ -101,20 +106,28 @@ def simulate(
             clean = lamp_scenes(terms)
             lo = jnp.min(clean, axis=tuple(range(clean.ndim - 1)))
             hi = jnp.max(clean, axis=tuple(range(clean.ndim - 1)))
-            config["limits_rule"] = "noise-free min and max of this scenario set per band"
+            config["limits_rule"] = (
+                "noise-free min and max of this scenario set per band"
+            )
         else:
             lo, hi = (jnp.asarray(x) for x in limits)
         lead = (1,) * (radiance.ndim - 1)
-        lo, hi = lo.reshape(lead + (-1,)), hi.reshape(lead + (-1,))
+        lo, hi = lo.reshape((*lead, -1)), hi.reshape((*lead, -1))
         dn = quantise(radiance, lo, hi, bits)
         radiance = lo + dn * (hi - lo) / (2**bits - 1)
-        config["limits"] = [np.asarray(lo).ravel().tolist(), np.asarray(hi).ravel().tolist()]
+        config["limits"] = [
+            np.asarray(lo).ravel().tolist(),
+            np.asarray(hi).ravel().tolist(),
+        ]
     names = tuple(getattr(bands, "names", ())) or tuple(
         f"B{i + 1}" for i in range(radiance.shape[-1])
     )
     return Simulation(
-        np.asarray(radiance), None if electrons is None else np.asarray(electrons),
-        terms, names, config,
+        np.asarray(radiance),
+        None if electrons is None else np.asarray(electrons),
+        terms,
+        names,
+        config,
     )
 
 
@@ -132,8 +145,12 @@ def to_frame(scen: ScenarioSet, sim: Simulation):
     idx = np.indices(shape).reshape(len(shape), -1)
     frame = {
         "lamp": np.asarray(scen.lamp_ids, dtype=object)[idx[0]],
-        "level1": np.asarray([rec[i].level1 for i in scen.lamp_ids], dtype=object)[idx[0]],
-        "level2": np.asarray([rec[i].level2 for i in scen.lamp_ids], dtype=object)[idx[0]],
+        "level1": np.asarray([rec[i].level1 for i in scen.lamp_ids], dtype=object)[
+            idx[0]
+        ],
+        "level2": np.asarray([rec[i].level2 for i in scen.lamp_ids], dtype=object)[
+            idx[0]
+        ],
         "surface": np.asarray(scen.surface_labels, dtype=object)[idx[1]],
         "atmosphere": np.asarray(scen.atmosphere_labels, dtype=object)[idx[2]],
         "moon": np.asarray(scen.moon_labels, dtype=object)[idx[3]],

@@ -11,8 +11,20 @@ from pathlib import Path
 
 
 PACKAGES = (
-    "bandopt", "jax", "jaxlib", "equinox", "optimistix", "lineax", "nlopt",
-    "colour-science", "scikit-learn", "numpy", "scipy", "earthlib", "ephem", "pvlib",
+    "bandopt",
+    "jax",
+    "jaxlib",
+    "equinox",
+    "optimistix",
+    "lineax",
+    "nlopt",
+    "colour-science",
+    "scikit-learn",
+    "numpy",
+    "scipy",
+    "earthlib",
+    "ephem",
+    "pvlib",
     "matplotlib",
 )
 
@@ -20,7 +32,10 @@ PACKAGES = (
 def _git(*args: str) -> str | None:
     try:
         out = subprocess.run(
-            ["git", *args], capture_output=True, text=True, check=True,
+            ["git", *args],
+            capture_output=True,
+            text=True,
+            check=True,
             cwd=Path(__file__).resolve().parent,
         )
     except (OSError, subprocess.CalledProcessError):
@@ -68,7 +83,7 @@ def manifest(*, seed: int | None = None, config: dict | None = None, **extra) ->
 
 
 def write_manifest(directory: str | Path, **kwargs) -> Path:
-    """Write `manifest.json` into `directory` (created if needed) and return its path."""
+    """Write `manifest.json` into `directory` (created if needed); return its path."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     path = directory / "manifest.json"

@@ -15,7 +15,9 @@ RESULTS_DIR = Path(os.environ.get("BANDOPT_RESULTS", "results"))
 RECOMMENDATION = "recommendation.json"
 
 
-def update_recommendation(key: str, value, *, results_dir: str | Path | None = None) -> Path:
+def update_recommendation(
+    key: str, value, *, results_dir: str | Path | None = None
+) -> Path:
     """Replace `key` in `results/recommendation.json` (created if missing),
     writing atomically so a crash never leaves a half-written file."""
     root = Path(results_dir) if results_dir is not None else RESULTS_DIR

@@ -58,12 +58,18 @@ from .spectra import GRID_1NM, trapezoid_weights
 
 LIGHTING_CLASSES: Mapping[str, tuple[str, float]] = MappingProxyType(
     {
-        **{f"P{i + 1}": ("illuminance_lx", v) for i, v in
-           enumerate((15.0, 10.0, 7.5, 5.0, 3.0, 2.0))},
-        **{f"C{i}": ("illuminance_lx", v) for i, v in
-           enumerate((50.0, 30.0, 20.0, 15.0, 10.0, 7.5))},
-        **{f"M{i + 1}": ("luminance_cd_m2", v) for i, v in
-           enumerate((2.0, 1.5, 1.0, 0.75, 0.5, 0.3))},
+        **{
+            f"P{i + 1}": ("illuminance_lx", v)
+            for i, v in enumerate((15.0, 10.0, 7.5, 5.0, 3.0, 2.0))
+        },
+        **{
+            f"C{i}": ("illuminance_lx", v)
+            for i, v in enumerate((50.0, 30.0, 20.0, 15.0, 10.0, 7.5))
+        },
+        **{
+            f"M{i + 1}": ("luminance_cd_m2", v)
+            for i, v in enumerate((2.0, 1.5, 1.0, 0.75, 0.5, 0.3))
+        },
     }
 )
 """EN 13201-2:2015 lighting classes: P and C classes are average horizontal
@@ -81,7 +87,8 @@ def class_illuminance_lx(name: str, *, q0_per_sr: float = Q0_DRY_R3_PER_SR) -> f
     key = name.strip().upper()
     if key not in LIGHTING_CLASSES:
         raise ValueError(
-            f"Unknown lighting class {name!r}; expected one of {list(LIGHTING_CLASSES)}."
+            f"Unknown lighting class {name!r}; expected one of "
+            f"{list(LIGHTING_CLASSES)}."
         )
     if not q0_per_sr > 0:
         raise ValueError(f"q0_per_sr must be > 0, got {q0_per_sr!r}.")
@@ -122,7 +129,8 @@ class Factors(eqx.Module):
     - `lamp`: spectral irradiance per lux, `S_l`. (l, w) [W m⁻² nm⁻¹ lx⁻¹]
     - `reflectance`: surface reflectance. (s, w) [1]
     - `t_up`: upward total transmittance. (a, w) [1]
-    - `moon_ground`: `T_down E_moon cos θ` on the ground, or None. (a, m, w) [W m⁻² nm⁻¹]
+    - `moon_ground`: `T_down E_moon cos θ` on the ground, or None.
+      (a, m, w) [W m⁻² nm⁻¹]
     - `path`: moonlight path radiance, or None. (a, m, w) [W m⁻² sr⁻¹ nm⁻¹]
     - `illuminance_lx`: class illuminances. (c,) [lx]
     - `uplight`: `u / (1 - u) / π`, or None. [sr⁻¹]
@@ -151,9 +159,15 @@ class Factors(eqx.Module):
             return None if a is None else a[..., i0:i1]
 
         return Factors(
-            self.wavelength_nm[i0:i1], cut(self.lamp), cut(self.reflectance),
-            cut(self.t_up), cut(self.moon_ground), cut(self.path),
-            self.illuminance_lx, self.uplight, cut(self.fire),
+            self.wavelength_nm[i0:i1],
+            cut(self.lamp),
+            cut(self.reflectance),
+            cut(self.t_up),
+            cut(self.moon_ground),
+            cut(self.path),
+            self.illuminance_lx,
+            self.uplight,
+            cut(self.fire),
         )
 
 
@@ -181,7 +195,10 @@ _HI = lax.Precision.HIGHEST
 
 
 def band_weights(
-    response: Float[Array, "b w"], wavelength_nm: Float[Array, " w"], *, average: bool = True
+    response: Float[Array, "b w"],
+    wavelength_nm: Float[Array, " w"],
+    *,
+    average: bool = True,
 ) -> Float[Array, "b w"]:
     """Quadrature weights that turn a spectrum into band radiance.
 
@@ -205,16 +222,24 @@ def band_terms(factors: Factors, weights: Float[Array, "b w"]) -> BandTerms:
         "lw,sw,abw->lsab", f.lamp, f.reflectance / math.pi, tw, precision=_HI
     )
     uplight = (
-        None if f.uplight is None
+        None
+        if f.uplight is None
         else f.uplight * jnp.einsum("lw,abw->lab", f.lamp, tw, precision=_HI)
     )
     moon = (
-        None if f.moon_ground is None
-        else jnp.einsum("sw,amw,abw->samb", f.reflectance / math.pi, f.moon_ground, tw,
-                        precision=_HI)
+        None
+        if f.moon_ground is None
+        else jnp.einsum(
+            "sw,amw,abw->samb",
+            f.reflectance / math.pi,
+            f.moon_ground,
+            tw,
+            precision=_HI,
+        )
     )
     path = (
-        None if f.path is None
+        None
+        if f.path is None
         else jnp.einsum("amw,bw->amb", f.path, weights, precision=_HI)
     )
     fire = (
@@ -252,7 +277,9 @@ def moon_scenes(terms: BandTerms) -> Float[Array, "s a m b"]:
 def fire_scenes(terms: BandTerms) -> Float[Array, "f a b"]:
     """Band radiance of the fire scenes (temperature, atmosphere, band); no Moon."""
     if terms.fire is None:
-        raise ValueError("This scenario set has no fire scenes (fire_temperatures_k=()).")
+        raise ValueError(
+            "This scenario set has no fire scenes (fire_temperatures_k=())."
+        )
     return terms.fire
 
 
@@ -272,8 +299,13 @@ class ScenarioSet:
 
     @property
     def shape(self) -> tuple[int, ...]:
-        return (len(self.lamp_ids), len(self.surface_labels), len(self.atmosphere_labels),
-                max(len(self.moon_labels), 1), len(self.class_labels))
+        return (
+            len(self.lamp_ids),
+            len(self.surface_labels),
+            len(self.atmosphere_labels),
+            max(len(self.moon_labels), 1),
+            len(self.class_labels),
+        )
 
     @property
     def n_lamp_scenes(self) -> int:
@@ -285,14 +317,30 @@ class ScenarioSet:
         f = self.factors
         return dataclasses.replace(
             self,
-            factors=Factors(f.wavelength_nm, f.lamp[idx], f.reflectance, f.t_up,
-                            f.moon_ground, f.path, f.illuminance_lx, f.uplight, f.fire),
+            factors=Factors(
+                f.wavelength_nm,
+                f.lamp[idx],
+                f.reflectance,
+                f.t_up,
+                f.moon_ground,
+                f.path,
+                f.illuminance_lx,
+                f.uplight,
+                f.fire,
+            ),
             lamp_ids=tuple(self.lamp_ids[i] for i in idx),
         )
 
 
-DEFAULT_SURFACES = ("asphalt", "road", "parking_lot", "sidewalk", "concrete_roof_tile",
-                    "soil", "grass")
+DEFAULT_SURFACES = (
+    "asphalt",
+    "road",
+    "parking_lot",
+    "sidewalk",
+    "concrete_roof_tile",
+    "soil",
+    "grass",
+)
 DEFAULT_CLASSES = ("P1", "P4", "P6", "C0", "C3", "M1", "M4", "M6")
 DEFAULT_ATMOSPHERES = (
     ("midlatitude_summer", "urban", 23.0),
@@ -374,7 +422,9 @@ def build_scenarios(
         raise ValueError(f"uplight_ratio must lie in [0, 0.5], got {uplight_ratio!r}.")
     moon_states = []
     for m in moons:
-        moon_states.append(None if m is None else moon_mod.named_phase(m, moon_zenith_deg))
+        moon_states.append(
+            None if m is None else moon_mod.named_phase(m, moon_zenith_deg)
+        )
     has_moon = any(m is not None for m in moon_states)
 
     t_up, moon_ground, path, atm_labels = [], [], [], []
@@ -385,8 +435,16 @@ def build_scenarios(
             spec = None
         else:
             spec = AtmosphereSpec(*a)
-            t_up.append(atm_mod.transmittance("up", spec.atmosphere, spec.aerosol,
-                                              spec.visibility_km, view_zenith_deg, grid))
+            t_up.append(
+                atm_mod.transmittance(
+                    "up",
+                    spec.atmosphere,
+                    spec.aerosol,
+                    spec.visibility_km,
+                    view_zenith_deg,
+                    grid,
+                )
+            )
             atm_labels.append(spec.label)
         mg, pa = [], []
         for m in moon_states:
@@ -400,23 +458,39 @@ def build_scenarios(
                 mg.append(e_toa * cos)
                 pa.append(np.zeros_like(grid))
             else:
-                t_down = atm_mod.transmittance("down", spec.atmosphere, spec.aerosol,
-                                               spec.visibility_km, m.zenith_deg, grid)
+                t_down = atm_mod.transmittance(
+                    "down",
+                    spec.atmosphere,
+                    spec.aerosol,
+                    spec.visibility_km,
+                    m.zenith_deg,
+                    grid,
+                )
                 mg.append(t_down * e_toa * cos)
-                pa.append(atm_mod.path_radiance(e_toa, m.zenith_deg, spec.atmosphere,
-                                                spec.aerosol, spec.visibility_km,
-                                                view_zenith_deg, grid))
+                pa.append(
+                    atm_mod.path_radiance(
+                        e_toa,
+                        m.zenith_deg,
+                        spec.atmosphere,
+                        spec.aerosol,
+                        spec.visibility_km,
+                        view_zenith_deg,
+                        grid,
+                    )
+                )
         moon_ground.append(mg)
         path.append(pa)
 
     fire = None
     if len(fire_temperatures_k):
-        fire = fire_fraction * fire_emissivity * planck_radiance(
-            jnp.asarray(grid), jnp.asarray(fire_temperatures_k, float)
+        fire = (
+            fire_fraction
+            * fire_emissivity
+            * planck_radiance(
+                jnp.asarray(grid), jnp.asarray(fire_temperatures_k, float)
+            )
         )
-    any_path = has_moon and any(
-        lab != NO_ATMOSPHERE for lab in atm_labels
-    )
+    any_path = has_moon and any(lab != NO_ATMOSPHERE for lab in atm_labels)
     factors = Factors(
         wavelength_nm=jnp.asarray(grid),
         lamp=jnp.asarray(lamp),
@@ -427,28 +501,42 @@ def build_scenarios(
         illuminance_lx=jnp.asarray(
             [class_illuminance_lx(c, q0_per_sr=q0_per_sr) for c in classes]
         ),
-        uplight=(uplight_ratio / (1 - uplight_ratio) / math.pi) if uplight_ratio > 0 else None,
+        uplight=(uplight_ratio / (1 - uplight_ratio) / math.pi)
+        if uplight_ratio > 0
+        else None,
         fire=fire,
     )
     moon_labels = tuple(
         "none" if m is None else f"{m.name}@{m.zenith_deg:g}deg" for m in moon_states
     )
     config = {
-        "lamps": "all" if lamps is None else list(lamps), "scored_only": scored_only,
-        "surfaces": list(surfaces), "surface_samples": surface_samples,
+        "lamps": "all" if lamps is None else list(lamps),
+        "scored_only": scored_only,
+        "surfaces": list(surfaces),
+        "surface_samples": surface_samples,
         "atmospheres": [a if isinstance(a, str) else list(a) for a in atmospheres],
-        "moons": list(moons), "moon_zenith_deg": moon_zenith_deg,
-        "classes": list(classes), "q0_per_sr": q0_per_sr,
-        "view_zenith_deg": view_zenith_deg, "uplight_ratio": uplight_ratio,
-        "fire_temperatures_k": list(fire_temperatures_k), "fire_fraction": fire_fraction,
-        "fire_emissivity": fire_emissivity, "extend_nir": extend_nir,
+        "moons": list(moons),
+        "moon_zenith_deg": moon_zenith_deg,
+        "classes": list(classes),
+        "q0_per_sr": q0_per_sr,
+        "view_zenith_deg": view_zenith_deg,
+        "uplight_ratio": uplight_ratio,
+        "fire_temperatures_k": list(fire_temperatures_k),
+        "fire_fraction": fire_fraction,
+        "fire_emissivity": fire_emissivity,
+        "extend_nir": extend_nir,
         "wavelength_nm": [float(grid[0]), float(grid[-1]), float(grid[1] - grid[0])],
         "seed": seed,
     }
     return ScenarioSet(
-        factors, lamp_ids, tuple(surface_labels), tuple(atm_labels),
-        moon_labels if moon_labels else ("none",), tuple(c.upper() for c in classes),
-        tuple(f"fire_{t:g}K" for t in fire_temperatures_k), config,
+        factors,
+        lamp_ids,
+        tuple(surface_labels),
+        tuple(atm_labels),
+        moon_labels if moon_labels else ("none",),
+        tuple(c.upper() for c in classes),
+        tuple(f"fire_{t:g}K" for t in fire_temperatures_k),
+        config,
     )
 
 

@@ -33,25 +33,35 @@ def _timeit(fn, repeat=3):
     return best
 
 
-BANDS = dict(centre_nm=[450.0, 520.0, 590.0, 660.0, 760.0, 820.0],
-             fwhm_nm=[30.0, 60.0, 20.0, 50.0, 100.0, 40.0])
+BANDS = dict(
+    centre_nm=[450.0, 520.0, 590.0, 660.0, 760.0, 820.0],
+    fwhm_nm=[30.0, 60.0, 20.0, 50.0, 100.0, 40.0],
+)
 
 
 def speed(quick: bool) -> dict:
     import jax
-    import jax.numpy as jnp
-
-    from bandopt.datasets.surfaces import SURFACE_TYPES
-    from bandopt.scene import LIGHTING_CLASSES, band_terms, band_weights, build_scenarios, lamp_scenes
-    from bandopt.sensor import BandSet
 
     from bandopt.datasets.atmosphere import atmosphere_ids
+    from bandopt.datasets.surfaces import SURFACE_TYPES
+    from bandopt.scene import (
+        LIGHTING_CLASSES,
+        band_terms,
+        band_weights,
+        build_scenarios,
+        lamp_scenes,
+    )
+    from bandopt.sensor import BandSet
 
-    surfaces = [s for s in SURFACE_TYPES if s not in ("water", "snow")][: 4 if quick else 10]
+    surfaces = [s for s in SURFACE_TYPES if s not in ("water", "snow")][
+        : 4 if quick else 10
+    ]
     scen = build_scenarios(
-        surfaces=surfaces, surface_samples=2 if quick else 5,
+        surfaces=surfaces,
+        surface_samples=2 if quick else 5,
         atmospheres=atmosphere_ids()[: 4 if quick else None],
-        moons=(None, "full", "first_quarter"), classes=tuple(LIGHTING_CLASSES),
+        moons=(None, "full", "first_quarter"),
+        classes=tuple(LIGHTING_CLASSES),
     )
     bands = BandSet.from_physical(**BANDS)
     f = scen.factors
@@ -66,11 +76,16 @@ def speed(quick: bool) -> dict:
 
     # Multiply-adds of the dominant contraction lsab = lw . (sw * abw): l*s*a*b*w.
     macs = l * s * a * b * w.size
-    lamp, refl, tw = (np.asarray(x) for x in (f.lamp, f.reflectance / np.pi,
-                                              f.t_up[:, None, :] * wts[None]))
-    t_np_einsum = _timeit(lambda: np.einsum("lw,sw,abw->lsab", lamp, refl, tw,
-                                            optimize=True), repeat=2)
-    rhs = np.ascontiguousarray((refl[:, None, None, :] * tw[None]).reshape(-1, w.size).T)
+    lamp, refl, tw = (
+        np.asarray(x)
+        for x in (f.lamp, f.reflectance / np.pi, f.t_up[:, None, :] * wts[None])
+    )
+    t_np_einsum = _timeit(
+        lambda: np.einsum("lw,sw,abw->lsab", lamp, refl, tw, optimize=True), repeat=2
+    )
+    rhs = np.ascontiguousarray(
+        (refl[:, None, None, :] * tw[None]).reshape(-1, w.size).T
+    )
     t_matmul = _timeit(lambda: lamp @ rhs, repeat=3)
 
     # (b) materialise the spectral array for a chunk of scenarios, then sum.
@@ -83,20 +98,30 @@ def speed(quick: bool) -> dict:
 
     def materialised():
         # one lamp x all surfaces x atmospheres x moons x classes, full spectra
-        spec = (e[None, None, None, :, None]
-                * (np.asarray(f.lamp)[lam_idx][None, None, None, None, :])
-                + mg[None, :, :, None, :])  # (1, a, m, c, w) ground irradiance
-        spec = (refl[:, None, None, None, :] * spec) * tup[None, :, None, None, :] \
-            + pa[None, :, :, None, :]
+        spec = (
+            e[None, None, None, :, None]
+            * (np.asarray(f.lamp)[lam_idx][None, None, None, None, :])
+            + mg[None, :, :, None, :]
+        )  # (1, a, m, c, w) ground irradiance
+        spec = (refl[:, None, None, None, :] * spec) * tup[None, :, None, None, :] + pa[
+            None, :, :, None, :
+        ]
         return np.einsum("samcw,bw->samcb", spec, wn, optimize=True)
 
     t_mat = _timeit(materialised, repeat=1)
     n_chunk = s * a * m * c
     return {
-        "scenario_set": {"lamps": l, "surfaces": s, "atmospheres": a, "moons": m,
-                         "classes": c, "bands": b, "wavelengths": int(w.size),
-                         "lamp_scenes": n_scen,
-                         "full_spectral_array_gb": n_scen * w.size * 8 / 1e9},
+        "scenario_set": {
+            "lamps": l,
+            "surfaces": s,
+            "atmospheres": a,
+            "moons": m,
+            "classes": c,
+            "bands": b,
+            "wavelengths": int(w.size),
+            "lamp_scenes": n_scen,
+            "full_spectral_array_gb": n_scen * w.size * 8 / 1e9,
+        },
         "bandopt_jit_s": t_jax,
         "bandopt_ns_per_scenario": t_jax / n_scen * 1e9,
         "numpy_einsum_s": t_np_einsum,
@@ -108,12 +133,16 @@ def speed(quick: bool) -> dict:
         "ratio_numpy_einsum_to_bandopt": t_np_einsum / t_jax,
         "materialised_chunk_scenarios": n_chunk,
         "materialised_ns_per_scenario": t_mat / n_chunk * 1e9,
-        "ratio_materialised_to_bandopt_per_scenario": (t_mat / n_chunk) / (t_jax / n_scen),
-        "goals": {"within_3x_of_matmul": t_jax / t_matmul <= 3.0,
-                  "at_least_20x_faster_than_materialised":
-                      (t_mat / n_chunk) / (t_jax / n_scen) >= 20.0},
+        "ratio_materialised_to_bandopt_per_scenario": (t_mat / n_chunk)
+        / (t_jax / n_scen),
+        "goals": {
+            "within_3x_of_matmul": t_jax / t_matmul <= 3.0,
+            "at_least_20x_faster_than_materialised": (t_mat / n_chunk)
+            / (t_jax / n_scen)
+            >= 20.0,
+        },
         "note": "bandopt time includes assembling the full (l,s,a,m,c,b) output; the "
-                "matmul limit counts only the dominant l*s*a*b*w contraction.",
+        "matmul limit counts only the dominant l*s*a*b*w contraction.",
     }
 
 
@@ -132,9 +161,13 @@ def grid_error(quick: bool) -> dict:
         grid = np.arange(380.0, 900.0 + step / 2, step)
         scen = build_scenarios(
             surfaces=("asphalt", "grass", "concrete_roof_tile"),
-            atmospheres=(("midlatitude_summer", "urban", 23.0),
-                         ("tropical", "maritime", 10.0)),
-            moons=(None, "full"), classes=("P1", "M4"), wavelength_nm=grid,
+            atmospheres=(
+                ("midlatitude_summer", "urban", 23.0),
+                ("tropical", "maritime", 10.0),
+            ),
+            moons=(None, "full"),
+            classes=("P1", "M4"),
+            wavelength_nm=grid,
         )
         for crop in (False, True):
             if crop:
@@ -148,8 +181,11 @@ def grid_error(quick: bool) -> dict:
                 ref = val
             rel = np.abs(val / ref - 1)
             out[f"{step:g}nm{'_crop' if crop else ''}"] = {
-                "step_nm": step, "crop": crop, "wavelengths": int(f.wavelength_nm.size),
-                "time_s": t, "max_rel_error": float(rel.max()),
+                "step_nm": step,
+                "crop": crop,
+                "wavelengths": int(f.wavelength_nm.size),
+                "time_s": t,
+                "max_rel_error": float(rel.max()),
                 "median_rel_error": float(np.median(rel)),
             }
     base = out["0.5nm"]["time_s"]

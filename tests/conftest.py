@@ -1,10 +1,12 @@
 import os
 
+
 os.environ.setdefault("MPLBACKEND", "Agg")
 
-import bandopt  # noqa: E402
-import jax  # noqa: E402
-import pytest  # noqa: E402
+import jax
+import pytest
+
+import bandopt
 
 
 bandopt.configure()

@@ -23,12 +23,28 @@ def test_every_command_has_help(capsys):
 def test_library_json(capsys):
     assert main(["library", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
-    keys = {"id", "name", "level1", "level2", "source", "measured_range_nm", "extended",
-            "LER", "G", "CCT", "Duv"}
+    keys = {
+        "id",
+        "name",
+        "level1",
+        "level2",
+        "source",
+        "measured_range_nm",
+        "extended",
+        "LER",
+        "G",
+        "CCT",
+        "Duv",
+    }
     assert all(keys <= set(r) for r in rows)
     hps = next(r for r in rows if r["id"] == "nist_traditional_hps")
-    sd = colour.SDS_LIGHT_SOURCES["HPS"].copy().align(colour.SpectralShape(380, 780, 1),
-                                                       interpolator=colour.LinearInterpolator)
+    sd = (
+        colour.SDS_LIGHT_SOURCES["HPS"]
+        .copy()
+        .align(
+            colour.SpectralShape(380, 780, 1), interpolator=colour.LinearInterpolator
+        )
+    )
     assert hps["LER"] == pytest.approx(colour.luminous_efficacy(sd), rel=1e-6)
     assert hps["level1"] == "hid" and hps["extended"] is True
 
@@ -52,15 +68,22 @@ def test_metrics_json_in_input_order(tmp_path, capsys, shared_dir):
     for name in ("LED-B1", "LED-B5"):
         sd = colour.SDS_ILLUMINANTS[name]
         p = tmp_path / f"{name}.csv"
-        p.write_text("wavelength_nm,value\n" + "\n".join(
-            f"{x},{sd[x]}" for x in w))
+        p.write_text("wavelength_nm,value\n" + "\n".join(f"{x},{sd[x]}" for x in w))
         files.append(str(p))
     files.append(str(shared_dir / "data/lamps_nir_li1800/Osram.Super.Vialox.PRN"))
     assert main(["metrics", *files, "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
     assert [r["file"] for r in rows] == files
-    assert set(rows[0]) == {"file", "LER", "LER_full_range", "G", "G_flag", "CCT", "Duv",
-                            "CCT_flag"}
+    assert set(rows[0]) == {
+        "file",
+        "LER",
+        "LER_full_range",
+        "G",
+        "G_flag",
+        "CCT",
+        "Duv",
+        "CCT_flag",
+    }
     # Published CIE 015:2018 G values (JRC) within the summation-rule tolerance.
     assert rows[0]["G"] == pytest.approx(1.5304, abs=0.02)
     assert rows[1]["G"] == pytest.approx(0.3102, abs=0.02)

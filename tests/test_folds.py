@@ -66,7 +66,7 @@ def test_bootstrap_interval_contains_estimate_and_shrinks():
     err = rng.exponential(1.0, 100)
     est, lo, hi = lamp_bootstrap_ci(err, classes, n_boot=500)
     assert lo <= est <= hi
-    est2, lo2, hi2 = lamp_bootstrap_ci(np.tile(err, 4), np.tile(classes, 4), n_boot=500)
+    _, lo2, hi2 = lamp_bootstrap_ci(np.tile(err, 4), np.tile(classes, 4), n_boot=500)
     assert hi2 - lo2 < hi - lo
     with pytest.raises(ValueError, match="differ"):
         lamp_bootstrap_ci(err[:3], classes)

@@ -7,7 +7,7 @@ import pytest
 from bandopt.cli import main
 from bandopt.forward import simulate, to_frame
 from bandopt.scene import build_scenarios
-from bandopt.sensor import BandSet, SensorParams
+from bandopt.sensor import BandSet
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +42,9 @@ def test_noise_reproducible_and_scaled_by_signal(scen, bands):
     # Shot noise: relative error ~ 1/sqrt(electrons).
     rel = np.abs(n1.radiance / clean - 1)
     expected = 1 / np.sqrt(n1.electrons)
-    assert np.median(rel / expected) == pytest.approx(0.674, rel=0.35)  # |N(0,1)| median
+    assert np.median(rel / expected) == pytest.approx(
+        0.674, rel=0.35
+    )  # |N(0,1)| median
 
 
 def test_quantisation_within_half_step(scen, bands):
@@ -57,19 +59,42 @@ def test_frame_labels(scen, bands):
     sim = simulate(scen, bands)
     df = to_frame(scen, sim)
     assert len(df) == scen.n_lamp_scenes
-    row = df[(df.lamp == "cie_led_b3") & (df.surface == "grass") & (df.moon == "none")
-             & (df.lighting_class == "P6")].iloc[0]
+    row = df[
+        (df.lamp == "cie_led_b3")
+        & (df.surface == "grass")
+        & (df.moon == "none")
+        & (df.lighting_class == "P6")
+    ].iloc[0]
     i = scen.lamp_ids.index("cie_led_b3")
-    np.testing.assert_allclose(row[["L_B1", "L_B2", "L_B3"]].to_numpy(float),
-                               sim.radiance[i, 1, 0, 0, 1])
+    np.testing.assert_allclose(
+        row[["L_B1", "L_B2", "L_B3"]].to_numpy(float), sim.radiance[i, 1, 0, 0, 1]
+    )
     assert row.level2 == "led_cool" and row.illuminance_lx == 2.0
 
 
 def test_simulate_cli_csv(tmp_path, capsys):
     out = tmp_path / "sim.csv"
-    code = main(["simulate", "--bands", "sdgsat-1", "--lamps", "nist_traditional_hps",
-                 "--surfaces", "asphalt", "--atmospheres", "midlatitude_summer/urban/23",
-                 "none", "--moon", "none", "--classes", "P1", "M1", "--out", str(out)])
+    code = main(
+        [
+            "simulate",
+            "--bands",
+            "sdgsat-1",
+            "--lamps",
+            "nist_traditional_hps",
+            "--surfaces",
+            "asphalt",
+            "--atmospheres",
+            "midlatitude_summer/urban/23",
+            "none",
+            "--moon",
+            "none",
+            "--classes",
+            "P1",
+            "M1",
+            "--out",
+            str(out),
+        ]
+    )
     assert code == 0
     df = pd.read_csv(out)
     assert len(df) == 4 and {"lamp", "atmosphere", "lighting_class"} <= set(df.columns)
@@ -81,6 +106,15 @@ def test_simulate_cli_csv(tmp_path, capsys):
 
 
 def test_simulate_cli_bad_atmosphere(tmp_path, capsys):
-    code = main(["simulate", "--bands", "viirs-dnb", "--atmospheres", "mars", "--out",
-                 str(tmp_path / "x.csv")])
+    code = main(
+        [
+            "simulate",
+            "--bands",
+            "viirs-dnb",
+            "--atmospheres",
+            "mars",
+            "--out",
+            str(tmp_path / "x.csv"),
+        ]
+    )
     assert code == 2 and "--atmospheres 'mars'" in capsys.readouterr().err

@@ -50,7 +50,9 @@ def test_insufficient_classes_follow_the_rule(lib):
 def test_known_duplicate_removed(lib):
     # NIST "Incandescent" and Philips "60 A/W (Soft White)" are the same lamp.
     ids = set(lib.ids)
-    assert ("nist_traditional_incandescent" in ids) != ("nist_philips_60_a_w_soft_white" in ids)
+    assert ("nist_traditional_incandescent" in ids) != (
+        "nist_philips_60_a_w_soft_white" in ids
+    )
     a = light_sources.SDS_LIGHT_SOURCES_NIST_TRADITIONAL["Incandescent"].values
     b = light_sources.SDS_LIGHT_SOURCES_NIST_PHILIPS["60 A/W (Soft White)"].values
     np.testing.assert_allclose(a / a.sum(), b / b.sum(), rtol=0.03)
@@ -109,7 +111,9 @@ def test_shape_matches_source_spectrum(lib):
 
 def test_li1800_photon_to_energy(lib, shared_dir):
     # Raw file value at 820 nm (photon units) -> energy -> same shape as the library.
-    raw = np.loadtxt(shared_dir / "data/lamps_nir_li1800/Osram.Super.Vialox.PRN", comments='"')
+    raw = np.loadtxt(
+        shared_dir / "data/lamps_nir_li1800/Osram.Super.Vialox.PRN", comments='"'
+    )
     energy = raw[:, 1] * 119.627 / raw[:, 0]
     row = lib.values[lib.index("li1800_osram_super_vialox")]
     at = lambda w, s, x: np.interp(x, w, s)  # noqa: E731
@@ -122,8 +126,9 @@ def test_li1800_photon_to_energy(lib, shared_dir):
 
 def test_extension_flags_and_switch(lib):
     off = library(extend_nir=False)
-    for r_on, r_off, v_on, v_off in zip(lib.records, off.records, lib.values, off.values,
-                                        strict=True):
+    for r_on, r_off, v_on, v_off in zip(
+        lib.records, off.records, lib.values, off.values, strict=True
+    ):
         beyond = lib.wavelength_nm > r_on.measured_range_nm[1]
         assert r_on.extended == bool(beyond.any()) and not r_off.extended
         assert np.all(np.isnan(v_off[beyond])) and np.all(np.isfinite(v_on))
@@ -139,7 +144,7 @@ def test_extension_flags_and_switch(lib):
 def test_hps_extension_has_sodium_doublet(lib):
     row = lib.values[lib.index("nist_philips_c100s54_hps")]
     w = lib.wavelength_nm
-    nirpart = (w > 780)
+    nirpart = w > 780
     assert 815 <= w[nirpart][np.argmax(row[nirpart])] <= 822
 
 
@@ -155,15 +160,24 @@ def test_planck_matches_colour(lib):
     ours = lamps.planck_spectrum(w, 2856.0)  # [W m-2 sr-1 nm-1]
     # colour's default c2 is the CIE's rounded 1.4388e-2 m K; pass the exact h c / k.
     c2 = 6.62607015e-34 * 2.99792458e8 / 1.380649e-23
-    ref = colour.colorimetry.planck_law(w * 1e-9, 2856.0, c2=c2) * 1e-9  # per m -> per nm
+    ref = (
+        colour.colorimetry.planck_law(w * 1e-9, 2856.0, c2=c2) * 1e-9
+    )  # per m -> per nm
     np.testing.assert_allclose(ours, ref, rtol=1e-6)
 
 
 def test_validation_sets_never_in_library(lib):
     assert {r.source_set for r in lib.records} <= {
-        "li1800", "nist_philips", "nist_traditional", "nist_led", "cie015", "planck"
+        "li1800",
+        "nist_philips",
+        "nist_traditional",
+        "nist_led",
+        "cie015",
+        "planck",
     }
-    assert not any("tm30" in r.id or "lspdd" in r.id or "luxpy" in r.id for r in lib.records)
+    assert not any(
+        "tm30" in r.id or "lspdd" in r.id or "luxpy" in r.id for r in lib.records
+    )
 
 
 def test_bad_grid_rejected():

@@ -11,7 +11,9 @@ def rows():
     return {r["file"]: r for r in nir.validate_extension()}
 
 
-@pytest.mark.parametrize("f", ["Osram.Super.Vialox", "Osram.HQIT.400W", "Incandescent.60W"])
+@pytest.mark.parametrize(
+    "f", ["Osram.Super.Vialox", "Osram.HQIT.400W", "Incandescent.60W"]
+)
 def test_in_sample_extension_reproduces_nir_bands(rows, f):
     # One measured lamp per technology: in-sample check of the model's form.
     # 6 %: the worst NIR band error seen (840-900 nm, incandescent 5.5 %).

@@ -30,7 +30,9 @@ def test_cited_keys_in_code_resolve():
     # Keys are cited in backticks in docstrings (`Key2019`) or as source="Key".
     keys = _bib_keys()
     cited = set()
-    pattern = re.compile(r"(?:`|source=\"|\")([A-Z][A-Za-z]+(?:19|20)\d\d[a-z]?)(?:`|\")")
+    pattern = re.compile(
+        r"(?:`|source=\"|\")([A-Z][A-Za-z]+(?:19|20)\d\d[a-z]?)(?:`|\")"
+    )
     for path in ROOT.rglob("*.py"):
         cited |= set(pattern.findall(path.read_text()))
     missing = sorted(cited - keys)

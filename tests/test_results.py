@@ -15,5 +15,5 @@ def test_update_recommendation_merges_keys(tmp_path):
 
 def test_update_recommendation_rejects_non_object(tmp_path):
     (tmp_path / "recommendation.json").write_text("[1, 2]")
-    with pytest.raises(ValueError, match="recommendation.json"):
+    with pytest.raises(ValueError, match=r"recommendation\.json"):
         update_recommendation("x", 1, results_dir=tmp_path)

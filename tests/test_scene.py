@@ -19,7 +19,12 @@ from bandopt.scene import (
 )
 
 
-LAMPS = ("nist_traditional_hps", "nist_traditional_lps", "cie_led_b3", "li1800_osram_hqit_400w")
+LAMPS = (
+    "nist_traditional_hps",
+    "nist_traditional_lps",
+    "cie_led_b3",
+    "li1800_osram_hqit_400w",
+)
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +42,7 @@ def scen():
 
 def _weights(w, centres=(450.0, 560.0, 660.0, 820.0), fwhm=(40.0, 80.0, 50.0, 60.0)):
     x = 2 * (w[None, :] - jnp.asarray(centres)[:, None]) / jnp.asarray(fwhm)[:, None]
-    return band_weights(jnp.exp2(-jnp.abs(x) ** 6), w)
+    return band_weights(jnp.exp2(-(jnp.abs(x) ** 6)), w)
 
 
 def test_classes_and_m_conversion():
@@ -66,8 +71,17 @@ def test_linear_in_illuminance_and_lamp(scen):
     weights = _weights(f.wavelength_nm)
     t = band_terms(f, weights)
     twice = band_terms(
-        scene.Factors(f.wavelength_nm, 2 * f.lamp, f.reflectance, f.t_up, f.moon_ground,
-                      f.path, f.illuminance_lx, f.uplight, f.fire),
+        scene.Factors(
+            f.wavelength_nm,
+            2 * f.lamp,
+            f.reflectance,
+            f.t_up,
+            f.moon_ground,
+            f.path,
+            f.illuminance_lx,
+            f.uplight,
+            f.fire,
+        ),
         weights,
     )
     np.testing.assert_allclose(twice.lamp_surface, 2 * t.lamp_surface, rtol=1e-13)
@@ -79,8 +93,13 @@ def test_linear_in_illuminance_and_lamp(scen):
 
 
 def test_absent_terms_cost_nothing():
-    s = build_scenarios(lamps=LAMPS[:2], surfaces=("asphalt",), atmospheres=("none",),
-                        moons=(), classes=("P1",))
+    s = build_scenarios(
+        lamps=LAMPS[:2],
+        surfaces=("asphalt",),
+        atmospheres=("none",),
+        moons=(),
+        classes=("P1",),
+    )
     assert s.factors.moon_ground is None and s.factors.path is None
     assert s.factors.uplight is None and s.factors.fire is None
     t = band_terms(s.factors, _weights(s.factors.wavelength_nm))
@@ -89,7 +108,9 @@ def test_absent_terms_cost_nothing():
         moon_scenes(t)
     # No atmosphere: T = 1, so band radiance = ρ/π E S exactly.
     f = s.factors
-    expected = (_weights(f.wavelength_nm) @ (f.reflectance[0] / math.pi * 15.0 * f.lamp[0]))
+    expected = _weights(f.wavelength_nm) @ (
+        f.reflectance[0] / math.pi * 15.0 * f.lamp[0]
+    )
     np.testing.assert_allclose(lamp_scenes(t)[0, 0, 0, 0, 0], expected, rtol=1e-12)
 
 
@@ -131,7 +152,9 @@ def test_crop_keeps_band_radiance(scen):
     full = band_terms(f, _weights(f.wavelength_nm, centres, fwhm)).lamp_surface
     # Super-Gaussian k=6 at 1.2 FWHM from the centre is below 1e-12 of the peak.
     cropped = f.crop(540.0 - 36.0, 600.0 + 48.0)
-    got = band_terms(cropped, _weights(cropped.wavelength_nm, centres, fwhm)).lamp_surface
+    got = band_terms(
+        cropped, _weights(cropped.wavelength_nm, centres, fwhm)
+    ).lamp_surface
     assert cropped.wavelength_nm.size < f.wavelength_nm.size / 3
     np.testing.assert_allclose(got, full, rtol=1e-9)
 
@@ -141,7 +164,7 @@ def test_gradient_through_contraction_matches_fd(scen):
 
     def loss(centre):
         x = 2 * (f.wavelength_nm[None, :] - centre[:, None]) / 40.0
-        wts = band_weights(jnp.exp2(-jnp.abs(x) ** 6), f.wavelength_nm)
+        wts = band_weights(jnp.exp2(-(jnp.abs(x) ** 6)), f.wavelength_nm)
         lb = lamp_scenes(band_terms(f, wts))
         return jnp.sum(jnp.log(lb[..., 0] / lb[..., 1]) ** 2)
 

@@ -79,7 +79,8 @@ RULES = {
     "duplicate_rule": "same lamp when RMS difference of unit-visible-power spectra "
     "(380-780 nm, 5 nm) < 3 % of their mean; the copy from the first source in "
     "li1800 > nist_philips > nist_traditional > nist_led > cie015 is kept",
-    "led_warm_cool": "phosphor LEDs: led_warm for CCT <= 3500 K (Ohno 2013), else led_cool",
+    "led_warm_cool": "phosphor LEDs: led_warm for CCT <= 3500 K (Ohno 2013), "
+    "else led_cool",
     "excluded": "fluorescent tubes with |Duv| > 0.02 or CCT outside 1000-25000 K are "
     "coloured tubes: no level-2 class, never scored; led_rgb research mixes are "
     "their own class and never scored",
@@ -97,8 +98,9 @@ def _plot(lib, rows, path):
     groups = [g for g in dict.fromkeys(r["level2"] or "excluded" for r in rows)]
     n = len(groups)
     cols = 3
-    fig, axes = plt.subplots((n + cols - 1) // cols, cols, figsize=(13, 2.6 * ((n + 2) // 3)),
-                             sharex=True)
+    fig, axes = plt.subplots(
+        (n + cols - 1) // cols, cols, figsize=(13, 2.6 * ((n + 2) // 3)), sharex=True
+    )
     for ax, g in zip(axes.flat, groups, strict=False):
         idx = [i for i, r in enumerate(rows) if (r["level2"] or "excluded") == g]
         for i in idx:
@@ -110,7 +112,9 @@ def _plot(lib, rows, path):
         ax.axis("off")
     for ax in axes[-1]:
         ax.set_xlabel("wavelength [nm]")
-    fig.suptitle("bandopt lamp library (peak-normalised; dotted: 780 nm, extension beyond)")
+    fig.suptitle(
+        "bandopt lamp library (peak-normalised; dotted: 780 nm, extension beyond)"
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -135,19 +139,27 @@ def run(args) -> int:
     if args.counts:
         print(f"{'level1':<13}{'level2':<22}{'lamps':>6}{'CIE':>5}  status")
         for c in counts:
-            print(f"{c['level1']:<13}{c['level2'] or '-':<22}{c['lamps']:>6}"
-                  f"{c['cie_typical']:>5}  {c['status']}")
+            print(
+                f"{c['level1']:<13}{c['level2'] or '-':<22}{c['lamps']:>6}"
+                f"{c['cie_typical']:>5}  {c['status']}"
+            )
         n = sum(not r.modelled for r in lib.records)
-        print(f"\n{n} distinct measured lamps ({len(lib.removed)} near-duplicates "
-              f"removed), {len(lib) - n} modelled spectra (Planck: incandescent, fire).")
+        print(
+            f"\n{n} distinct measured lamps ({len(lib.removed)} near-duplicates "
+            f"removed), {len(lib) - n} modelled spectra (Planck: incandescent, fire)."
+        )
         print("Rules:")
         for k, v in RULES.items():
             print(f"  {k}: {v}")
         return 0
-    print(f"{'id':<42}{'level2':<22}{'source':<11}{'ext':>4}{'LER':>7}{'G':>7}"
-          f"{'CCT':>8}{'Duv':>8}")
+    print(
+        f"{'id':<42}{'level2':<22}{'source':<11}{'ext':>4}{'LER':>7}{'G':>7}"
+        f"{'CCT':>8}{'Duv':>8}"
+    )
     for r in rows:
-        print(f"{r['id'][:41]:<42}{(r['level2'] or '-'):<22}{r['source']:<11}"
-              f"{'yes' if r['extended'] else 'no':>4}{r['LER']:7.1f}{r['G']:7.2f}"
-              f"{r['CCT']:8.0f}{r['Duv']:8.4f}")
+        print(
+            f"{r['id'][:41]:<42}{(r['level2'] or '-'):<22}{r['source']:<11}"
+            f"{'yes' if r['extended'] else 'no':>4}{r['LER']:7.1f}{r['G']:7.2f}"
+            f"{r['CCT']:8.0f}{r['Duv']:8.4f}"
+        )
     return 0

@@ -17,9 +17,14 @@ def register(subparsers):
         ),
     )
     p.add_argument("files", nargs="+", metavar="FILE")
-    p.add_argument("--unit", default="relative",
-                   help="unit of CSV values (photon units are converted), default relative")
-    p.add_argument("--json", action="store_true", help="print a JSON list in input order")
+    p.add_argument(
+        "--unit",
+        default="relative",
+        help="unit of CSV values (photon units are converted), default relative",
+    )
+    p.add_argument(
+        "--json", action="store_true", help="print a JSON list in input order"
+    )
     p.set_defaults(func=run)
 
 
@@ -59,6 +64,8 @@ def run(args) -> int:
     print(f"{'file':<40}{'LER':>8}{'LER_full':>9}{'G':>7}{'CCT':>8}{'Duv':>8}  flags")
     for r in rows:
         flags = ",".join(k for k in ("G_flag", "CCT_flag") if r[k])
-        print(f"{r['file'][-39:]:<40}{r['LER']:8.1f}{r['LER_full_range']:9.1f}"
-              f"{r['G']:7.2f}{r['CCT']:8.0f}{r['Duv']:8.4f}  {flags}")
+        print(
+            f"{r['file'][-39:]:<40}{r['LER']:8.1f}{r['LER_full_range']:9.1f}"
+            f"{r['G']:7.2f}{r['CCT']:8.0f}{r['Duv']:8.4f}  {flags}"
+        )
     return 0

@@ -12,24 +12,54 @@ def register(subparsers):
             "and write them with all scenario labels to Parquet or CSV."
         ),
     )
-    p.add_argument("--bands", required=True, metavar="NAME|FILE",
-                   help="reference sensor name (e.g. viirs-dnb) or band-set JSON file")
-    p.add_argument("--lamps", nargs="*", metavar="ID",
-                   help="library lamp ids (default: all measured lamps; 'scored' for "
-                   "the scored classes only)")
+    p.add_argument(
+        "--bands",
+        required=True,
+        metavar="NAME|FILE",
+        help="reference sensor name (e.g. viirs-dnb) or band-set JSON file",
+    )
+    p.add_argument(
+        "--lamps",
+        nargs="*",
+        metavar="ID",
+        help="library lamp ids (default: all measured lamps; 'scored' for "
+        "the scored classes only)",
+    )
     p.add_argument("--surfaces", nargs="*", metavar="TYPE", help="surface types")
-    p.add_argument("--atmospheres", nargs="*", metavar="ATM/AEROSOL/VISkm",
-                   help="e.g. midlatitude_summer/urban/23 or none")
-    p.add_argument("--moon", nargs="*", metavar="PHASE",
-                   help="named phases (full, first_quarter, ...) or none")
+    p.add_argument(
+        "--atmospheres",
+        nargs="*",
+        metavar="ATM/AEROSOL/VISkm",
+        help="e.g. midlatitude_summer/urban/23 or none",
+    )
+    p.add_argument(
+        "--moon",
+        nargs="*",
+        metavar="PHASE",
+        help="named phases (full, first_quarter, ...) or none",
+    )
     p.add_argument("--moon-zenith", type=float, default=30.0, metavar="DEG")
     p.add_argument("--classes", nargs="*", metavar="CLASS", help="EN 13201 classes")
-    p.add_argument("--uplight", type=float, default=0.0, metavar="RATIO",
-                   help="upward light output ratio 0-0.5 (default 0)")
-    p.add_argument("--noise", action="store_true", help="add photon noise (Table 2.3 sensor)")
-    p.add_argument("--gsd", type=float, default=None, metavar="M",
-                   help="ground sample distance setting the integration time")
-    p.add_argument("--bits", type=int, default=None, metavar="N", help="quantise to N bits")
+    p.add_argument(
+        "--uplight",
+        type=float,
+        default=0.0,
+        metavar="RATIO",
+        help="upward light output ratio 0-0.5 (default 0)",
+    )
+    p.add_argument(
+        "--noise", action="store_true", help="add photon noise (Table 2.3 sensor)"
+    )
+    p.add_argument(
+        "--gsd",
+        type=float,
+        default=None,
+        metavar="M",
+        help="ground sample distance setting the integration time",
+    )
+    p.add_argument(
+        "--bits", type=int, default=None, metavar="N", help="quantise to N bits"
+    )
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", required=True, metavar="FILE.parquet|csv")
     p.set_defaults(func=run)
@@ -41,7 +71,8 @@ def _atm(text: str):
     parts = text.split("/")
     if len(parts) != 3:
         raise ValueError(
-            f"--atmospheres {text!r}: expected ATMOSPHERE/AEROSOL/VISIBILITY_KM or none."
+            f"--atmospheres {text!r}: expected ATMOSPHERE/AEROSOL/VISIBILITY_KM "
+            "or none."
         )
     return (parts[0], parts[1], float(parts[2].lower().removesuffix("km")))
 
@@ -52,7 +83,12 @@ def run(args) -> int:
     from tqdm import tqdm
 
     from ..forward import simulate, to_frame
-    from ..scene import DEFAULT_ATMOSPHERES, DEFAULT_CLASSES, DEFAULT_SURFACES, build_scenarios
+    from ..scene import (
+        DEFAULT_ATMOSPHERES,
+        DEFAULT_CLASSES,
+        DEFAULT_SURFACES,
+        build_scenarios,
+    )
     from ..sensor import SensorParams
     from ._cmd_bands import _load
 
@@ -62,14 +98,17 @@ def run(args) -> int:
     bands, _ = _load(args.bands)
     lamps = args.lamps
     scored_only = bool(lamps) and lamps == ["scored"]
-    moons = (None, "full") if args.moon is None else tuple(
-        None if m.lower() == "none" else m for m in args.moon
+    moons = (
+        (None, "full")
+        if args.moon is None
+        else tuple(None if m.lower() == "none" else m for m in args.moon)
     )
     scen = build_scenarios(
         lamps=None if (not lamps or scored_only) else lamps,
         scored_only=scored_only,
         surfaces=args.surfaces or DEFAULT_SURFACES,
-        atmospheres=[_atm(a) for a in args.atmospheres] if args.atmospheres
+        atmospheres=[_atm(a) for a in args.atmospheres]
+        if args.atmospheres
         else DEFAULT_ATMOSPHERES,
         moons=moons,
         moon_zenith_deg=args.moon_zenith,
@@ -86,11 +125,19 @@ def run(args) -> int:
     # One lamp block at a time keeps memory flat and shows progress on large sets.
     block = max(1, 20000 // max(1, scen.n_lamp_scenes // len(scen.lamp_ids)))
     starts = range(0, len(scen.lamp_ids), block)
-    for k, i0 in enumerate(tqdm(starts, desc="simulate", unit="lamp block",
-                                disable=len(starts) < 3)):
+    for k, i0 in enumerate(
+        tqdm(starts, desc="simulate", unit="lamp block", disable=len(starts) < 3)
+    ):
         sub = scen.subset_lamps(slice(i0, i0 + block))
-        sim = simulate(sub, bands, noise=args.noise, params=params,
-                       seed=args.seed + k, bits=args.bits, limits=limits)
+        sim = simulate(
+            sub,
+            bands,
+            noise=args.noise,
+            params=params,
+            seed=args.seed + k,
+            bits=args.bits,
+            limits=limits,
+        )
         frames.append(to_frame(sub, sim))
     import pandas as pd
 

@@ -170,13 +170,16 @@ class LampLibrary:
             and record.level2 not in NEVER_SCORED
         )
 
-    def select(self, *, lamps_only: bool = True, scored_only: bool = False) -> "LampLibrary":
+    def select(
+        self, *, lamps_only: bool = True, scored_only: bool = False
+    ) -> "LampLibrary":
         """A sub-library: `lamps_only` drops modelled spectra; `scored_only`
         keeps only lamps in scored classes."""
         keep = [
             i
             for i, r in enumerate(self.records)
-            if (not lamps_only or not r.modelled) and (not scored_only or self.is_scored(r))
+            if (not lamps_only or not r.modelled)
+            and (not scored_only or self.is_scored(r))
         ]
         return dataclasses.replace(
             self,
@@ -215,7 +218,8 @@ class LampLibrary:
                     "level2": None,
                     "lamps": len(unclassed),
                     "cie_typical": sum(r.cie_typical for r in unclassed),
-                    "status": "excluded: " + "; ".join(sorted({r.excluded for r in unclassed})),
+                    "status": "excluded: "
+                    + "; ".join(sorted({r.excluded for r in unclassed})),
                 }
             )
         return rows
@@ -251,8 +255,13 @@ _NIST_PHILIPS = {
     "MHC100/U/MP/4K": "metal_halide",
     "SDW-T 100W/LV (Super HPS)": "hps",
 }  # every other Philips entry is a linear fluorescent tube (F32T8, F34, F40)
-_CIE_HP = {"HP1": "hps", "HP2": "hps", "HP3": "metal_halide", "HP4": "metal_halide",
-           "HP5": "metal_halide"}
+_CIE_HP = {
+    "HP1": "hps",
+    "HP2": "hps",
+    "HP3": "metal_halide",
+    "HP4": "metal_halide",
+    "HP5": "metal_halide",
+}
 _LI1800_CLASS = {
     "Incandescent.60W": "incandescent_halogen",
     "Osram.36W.25": "fluorescent_linear",
@@ -288,18 +297,42 @@ def _raw_sources() -> list[_Raw]:
 
     raws: list[_Raw] = []
     for name, sd in light_sources.SDS_LIGHT_SOURCES_NIST_TRADITIONAL.items():
-        raws.append(_Raw(f"nist_traditional_{_slug(name)}", name, "Ohno2008a",
-                         "nist_traditional", _NIST_TRADITIONAL[name],
-                         sd.wavelengths.copy(), sd.values.copy()))
+        raws.append(
+            _Raw(
+                f"nist_traditional_{_slug(name)}",
+                name,
+                "Ohno2008a",
+                "nist_traditional",
+                _NIST_TRADITIONAL[name],
+                sd.wavelengths.copy(),
+                sd.values.copy(),
+            )
+        )
     for name, sd in light_sources.SDS_LIGHT_SOURCES_NIST_PHILIPS.items():
-        raws.append(_Raw(f"nist_philips_{_slug(name)}", name, "Ohno2008a",
-                         "nist_philips", _NIST_PHILIPS.get(name, "fluorescent_linear"),
-                         sd.wavelengths.copy(), sd.values.copy()))
+        raws.append(
+            _Raw(
+                f"nist_philips_{_slug(name)}",
+                name,
+                "Ohno2008a",
+                "nist_philips",
+                _NIST_PHILIPS.get(name, "fluorescent_linear"),
+                sd.wavelengths.copy(),
+                sd.values.copy(),
+            )
+        )
     for name, sd in light_sources.SDS_LIGHT_SOURCES_NIST_LED.items():
         rgb = name.startswith(("3-LED", "4-LED"))
-        raws.append(_Raw(f"nist_led_{_slug(name)}", name, "Ohno2008b", "nist_led",
-                         "led_rgb" if rgb else None,
-                         sd.wavelengths.copy(), sd.values.copy()))
+        raws.append(
+            _Raw(
+                f"nist_led_{_slug(name)}",
+                name,
+                "Ohno2008b",
+                "nist_led",
+                "led_rgb" if rgb else None,
+                sd.wavelengths.copy(),
+                sd.values.copy(),
+            )
+        )
     for name, sd in colour.SDS_ILLUMINANTS.items():
         if name.startswith("FL"):
             level2 = "fluorescent_linear"
@@ -311,18 +344,35 @@ def _raw_sources() -> list[_Raw]:
             level2 = None
         else:
             continue
-        raws.append(_Raw(f"cie_{_slug(name)}", f"CIE {name}", "CIE2018", "cie015",
-                         level2, sd.wavelengths.copy(), sd.values.copy(),
-                         cie_typical=True))
+        raws.append(
+            _Raw(
+                f"cie_{_slug(name)}",
+                f"CIE {name}",
+                "CIE2018",
+                "cie015",
+                level2,
+                sd.wavelengths.copy(),
+                sd.values.copy(),
+                cie_typical=True,
+            )
+        )
     for path in sorted(_LI1800.glob("*.PRN")):
         with warnings.catch_warnings():
             # Two samples of TLD36W.15 are slightly negative (noise, documented in
             # data/lamps_li1800/README.md); read_prn clips them.
             warnings.simplefilter("ignore", SpectrumWarning)
             s = read_prn(path)
-        raws.append(_Raw(f"li1800_{_slug(path.stem)}", path.stem.replace(".", " "),
-                         "Aphalo2023", "li1800", _LI1800_CLASS[path.stem],
-                         s.wavelength_nm, s.values))
+        raws.append(
+            _Raw(
+                f"li1800_{_slug(path.stem)}",
+                path.stem.replace(".", " "),
+                "Aphalo2023",
+                "li1800",
+                _LI1800_CLASS[path.stem],
+                s.wavelength_nm,
+                s.values,
+            )
+        )
     return raws
 
 
@@ -461,23 +511,47 @@ def _build(extend_nir: bool, grid_key: tuple[float, float, float]) -> LampLibrar
     for t in MODELLED_INCANDESCENT_K:
         values.append(_per_lumen(grid, planck_spectrum(grid, t)))
         records.append(
-            LampRecord(f"planck_incandescent_{int(t)}k", f"Planck {int(t)} K",
-                       "incandescent", "incandescent_halogen", "Planck1901", "planck",
-                       "W nm-1 lm-1", (float(grid[0]), float(grid[-1])), False, None,
-                       True, False, None)
+            LampRecord(
+                f"planck_incandescent_{int(t)}k",
+                f"Planck {int(t)} K",
+                "incandescent",
+                "incandescent_halogen",
+                "Planck1901",
+                "planck",
+                "W nm-1 lm-1",
+                (float(grid[0]), float(grid[-1])),
+                False,
+                None,
+                True,
+                False,
+                None,
+            )
         )
     for t in MODELLED_FIRE_K:
         values.append(_per_lumen(grid, planck_spectrum(grid, t)))
         records.append(
-            LampRecord(f"planck_fire_{int(t)}k", f"Fire (blackbody) {int(t)} K",
-                       "fire", None, "Planck1901", "planck", "W nm-1 lm-1",
-                       (float(grid[0]), float(grid[-1])), False, None, True, False, None)
+            LampRecord(
+                f"planck_fire_{int(t)}k",
+                f"Fire (blackbody) {int(t)} K",
+                "fire",
+                None,
+                "Planck1901",
+                "planck",
+                "W nm-1 lm-1",
+                (float(grid[0]), float(grid[-1])),
+                False,
+                None,
+                True,
+                False,
+                None,
+            )
         )
 
     # Classes with too few distinct measured lamps.
     measured = [rec for rec in records if not rec.modelled and rec.excluded is None]
     insufficient = tuple(
-        l2 for l2 in LEVEL2
+        l2
+        for l2 in LEVEL2
         if sum(rec.level2 == l2 for rec in measured) < MIN_LAMPS_FOR_SCORING
     )
     values_arr = np.asarray(values)

@@ -27,7 +27,7 @@ import numpy as np
 
 PHOTON_TO_ENERGY_NM = 119.627
 """Photon to energy: E [W m⁻² nm⁻¹] = q [µmol m⁻² s⁻¹ nm⁻¹] · 119.627 / λ [nm],
-since N_A·h·c = 0.119627 J m mol⁻¹ = 119.627 J nm µmol⁻¹ · 10⁻⁶ mol µmol⁻¹ · 10⁹ nm m⁻¹."""
+since N_A·h·c = 0.119627 J m mol⁻¹ and 1 µmol = 10⁻⁶ mol, 1 m = 10⁹ nm."""
 
 UNITS = {
     "w m-2 nm-1": "energy",
@@ -174,7 +174,9 @@ def read_csv(path: str | Path, *, unit: str = "relative") -> LoadedSpectrum:
         stripped = line.strip()
         if not stripped or stripped.startswith("#"):
             continue
-        fields = next(csv.reader(io.StringIO(stripped.replace(";", ",").replace("\t", ","))))
+        fields = next(
+            csv.reader(io.StringIO(stripped.replace(";", ",").replace("\t", ",")))
+        )
         if len(fields) == 1:
             fields = stripped.split()
         fields = [f.strip() for f in fields if f.strip() != ""]
@@ -268,7 +270,13 @@ def read_tm27(path: str | Path) -> LoadedSpectrum:
     except Exception as err:  # colour raises several XML/parse errors
         raise ValueError(f"{path}: not a readable IES TM-27 file ({err}).") from err
     quantity = str(getattr(sd, "spectral_quantity", None) or "relative").lower()
-    if quantity in ("absorptance", "transmittance", "reflectance", "r-factor", "t-factor"):
+    if quantity in (
+        "absorptance",
+        "transmittance",
+        "reflectance",
+        "r-factor",
+        "t-factor",
+    ):
         raise ValueError(
             f"{path}: field SpectralQuantity is {quantity!r}, not an emission spectrum."
         )

@@ -88,7 +88,12 @@ _TECHNOLOGY = {
     "led_rgb": "led",
 }
 
-VALIDATED = {"hps": True, "metal_halide": True, "fluorescent": True, "incandescent": True}
+VALIDATED = {
+    "hps": True,
+    "metal_halide": True,
+    "fluorescent": True,
+    "incandescent": True,
+}
 """Technologies whose extension is checked against a measurement here."""
 
 
@@ -96,9 +101,11 @@ def technology_of(level2: str | None, level1: str | None = None) -> str | None:
     """The extension technology for a level-2 class (None: no extension)."""
     if level2 in _TECHNOLOGY:
         return _TECHNOLOGY[level2]
-    return {"fluorescent": "fluorescent", "led": "led", "incandescent": "incandescent"}.get(
-        level1 or ""
-    )
+    return {
+        "fluorescent": "fluorescent",
+        "led": "led",
+        "incandescent": "incandescent",
+    }.get(level1 or "")
 
 
 def _gauss(x_nm, centres_nm, fwhm_nm):
@@ -139,7 +146,9 @@ class LineCalibration:
 
     def evaluate(self, wavelength_nm: np.ndarray, visible_power: float) -> np.ndarray:
         coef = np.concatenate([self.strength, self.continuum])
-        return visible_power * _design(wavelength_nm, self.lines_nm, self.fwhm_nm) @ coef
+        return (
+            visible_power * _design(wavelength_nm, self.lines_nm, self.fwhm_nm) @ coef
+        )
 
 
 def _fit_lines(spectra, lines_nm):
@@ -255,7 +264,8 @@ def extend_spectrum(
         return _extend_flat(w, s, w_new)
     raise ValueError(
         f"Unknown technology {technology!r}; expected one of "
-        "['fluorescent', 'hps', 'incandescent', 'led', 'lps', 'mercury', 'metal_halide']."
+        "['fluorescent', 'hps', 'incandescent', 'led', 'lps', 'mercury', "
+        "'metal_halide']."
     )
 
 
@@ -284,13 +294,19 @@ def validate_extension() -> list[dict]:
             s1 = np.interp(grid, w, s)
             vis = grid <= EXTENSION_START_NM
             ext = s1.copy()
-            ext[~vis] = extend_spectrum(grid[vis], s1[vis], tech, grid[~vis], exclude=exclude)
+            ext[~vis] = extend_spectrum(
+                grid[vis], s1[vis], tech, grid[~vis], exclude=exclude
+            )
             bands = {}
             for name, (lo, hi) in VALIDATION_BANDS_NM.items():
                 m = (grid >= lo) & (grid <= hi)
                 true = float(np.trapezoid(s1[m], grid[m]))
                 est = float(np.trapezoid(ext[m], grid[m]))
-                bands[name] = {"measured": true, "extended": est, "rel_error": est / true - 1}
+                bands[name] = {
+                    "measured": true,
+                    "extended": est,
+                    "rel_error": est / true - 1,
+                }
             rows.append(
                 {"file": f, "technology": tech, "leave_one_out": loo, "bands": bands}
             )

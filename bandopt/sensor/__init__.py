@@ -23,7 +23,7 @@ from ._photon import (
     ground_track_speed_m_s as ground_track_speed_m_s,
     noise_electrons as noise_electrons,
     noise_equivalent_radiance as noise_equivalent_radiance,
-    _photon_weights as photon_weights,
+    photon_weights as photon_weights,
     radiance_from_electrons as radiance_from_electrons,
     responsivity as responsivity,
     signal_electrons as signal_electrons,

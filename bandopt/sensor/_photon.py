@@ -157,6 +157,11 @@ def _photon_weights(response, wavelength_nm, params, quantum_efficiency):
     return jnp.asarray(response) * (spectral * scale)[None, :]
 
 
+photon_weights = _photon_weights
+"""Public name of the `(b, w)` photon weights: electrons per (W m-2 sr-1 nm-1)
+at each sample, so `spectra @ photon_weights(...).T` gives signal electrons."""
+
+
 def signal_electrons(
     radiance_w_m2_sr_nm: Float[ArrayLike, "*batch w"],
     response: Float[ArrayLike, "b w"],
