@@ -151,10 +151,16 @@ def get_context(
     kw.update(over)
     if atmospheres == "auto":
         atms = ATMOSPHERES_6S if atmospheres_available() else ("none",)
+    elif atmospheres == "6s":
+        if not atmospheres_available():
+            raise ValueError("atmospheres='6s' but the 6S tables are not installed.")
+        atms = ATMOSPHERES_6S
     elif atmospheres == "none":
         atms = ("none",)
     else:
-        raise ValueError(f"atmospheres must be 'auto' or 'none', got {atmospheres!r}.")
+        raise ValueError(
+            f"atmospheres must be 'auto', '6s' or 'none', got {atmospheres!r}."
+        )
     scen = build_scenarios(scored_only=True, atmospheres=atms, **kw)
     lib = library().select(scored_only=True)
     if tuple(lib.ids) != scen.lamp_ids:
@@ -232,6 +238,9 @@ def make_task(**kwargs) -> dict:
         )
     task = {**DEFAULT_TASK, **kwargs}
     task["target"] = resolve_target(task["target"])
+    if task["atmospheres"] == "auto":
+        # Resolve now, so the task's hash (its result file) says which was used.
+        task["atmospheres"] = "6s" if atmospheres_available() else "none"
     return task
 
 
