@@ -68,6 +68,7 @@ radiometry: $(STAMP)
 
 spatial: $(STAMP)
 	$(BIN)/python -m experiments.spatial
+	$(BIN)/python -m experiments.spatial_overlap
 
 clean:
 	rm -rf $(VENV) .pytest_cache

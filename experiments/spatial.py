@@ -225,14 +225,36 @@ def main(cfg: Config, out: Path) -> dict:
             "DoG thresholds fixed in advance, identical for every GSD and scene",
             "match radius max(GSD, 5 m); twin poles are one target",
         ],
-        "overlapping_lamp_types": "not computed: needs the classifier of a later "
-        "issue (hook bandopt.spatial.lamp_type_f1_when_"
-        "overlapping)",
+        "overlapping_lamp_types": "see overlap.json / overlap.png "
+        "(python -m experiments.spatial_overlap, run by `make spatial`)",
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=str) + "\n")
     _markdown(out, summary, table, cfg)
     write_manifest(out, seed=cfg.seed, config=dc.asdict(cfg))
+    _recommend(summary, cfg)
     return summary
+
+
+def _recommend(summary: dict, cfg) -> None:
+    """Add the GSD needed per arrangement to results/recommendation.json."""
+    import statistics
+
+    from bandopt.results import update_recommendation
+
+    per = {k: v["coarsest_gsd_m"] for k, v in summary["gsd_needed_m"].items()}
+    rows = [v for k, v in per.items() if k in cfg.arrangements or k.startswith("row-")]
+    found = [v for v in rows if v is not None]
+    update_recommendation(
+        "spatial",
+        {
+            "gsd_needed_m_per_scene": per,
+            "median_gsd_needed_m": statistics.median(found) if found else None,
+            "scenes_never_detected": [k for k, v in per.items() if v is None],
+            "rule": "coarsest GSD with single-lamp detection F1 >= "
+            f"{cfg.f1_needed} (DoG, threshold fixed in advance)",
+            "thesis": summary["thesis"],
+        },
+    )
 
 
 def _aggregate(rows):

@@ -140,9 +140,31 @@ def test_match_counts():
     assert match_radius_m(2.0) == 5.0 and match_radius_m(20.0) == 20.0
 
 
-def test_overlap_hook_is_not_faked():
-    with pytest.raises(NotImplementedError, match="classifier"):
-        lamp_type_f1_when_overlapping()
+def test_overlapping_lamp_types_are_identified():
+    """Alternating HPS and LED lamps: at fine GSD most lit pixels are pure and
+    their type is found; at coarse GSD pixels mix the two types."""
+    from bandopt.sensor import reference_sensor
+    from bandopt.spatial import arrangement, per_type_radiance, render
+
+    bands = reference_sensor("sdgsat-1")
+    lay = arrangement("single-sided", spacing_m=40.0, mounting_height_m=10.0,
+                      length_m=240.0, width_m=60.0,
+                      lamps=("nist_traditional_hps", "cie_led_b3"))
+    scene = render(lay, bands, dx_m=1.0)
+    per_type = per_type_radiance(scene, bands)
+    # The per-type images add up to the scene (linearity).
+    np.testing.assert_allclose(per_type.sum(axis=0), scene.radiance, rtol=1e-9)
+    fine = lamp_type_f1_when_overlapping(scene, bands, 2.0, per_type=per_type, seed=1)
+    coarse = lamp_type_f1_when_overlapping(scene, bands, 20.0, per_type=per_type,
+                                           seed=1)
+    assert set(fine.f1_per_class) == {"hps", "led_cool"}
+    assert fine.n_lit > coarse.n_lit > 0
+    assert 0 < fine.mixed_fraction < 1 and 0 < fine.mean_minority_share < 0.5
+    # Pixels lit mostly by the HPS lamps are recognised as HPS; mixing hurts.
+    assert fine.f1_per_class["hps"] > 0.6
+    assert fine.f1_pure > fine.f1_mixed
+    for sc in (fine, coarse):
+        assert 0.0 <= sc.macro_f1 <= 1.0 and 0.0 <= sc.accuracy <= 1.0
 
 
 def test_isotropic_uplight_lamp_found_at_fine_gsd():

@@ -19,7 +19,6 @@ from ._detect import (
     Score as Score,
     detect_lamps as detect_lamps,
     dog_response as dog_response,
-    lamp_type_f1_when_overlapping as lamp_type_f1_when_overlapping,
     match as match,
     match_radius_m as match_radius_m,
     unique_targets as unique_targets,
@@ -62,6 +61,11 @@ from ._luminaire import (
     luminaire as luminaire,
     road_optic as road_optic,
     uniform as uniform,
+)
+from ._overlap import (
+    OverlapScore as OverlapScore,
+    lamp_type_f1_when_overlapping as lamp_type_f1_when_overlapping,
+    per_type_radiance as per_type_radiance,
 )
 from ._photometric import (
     IntensityTable as IntensityTable,

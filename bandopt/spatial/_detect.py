@@ -145,17 +145,3 @@ def match_radius_m(gsd_m: float) -> float:
     """`max(GSD, MIN_MATCH_RADIUS_M)`. [m]"""
     return max(float(gsd_m), MIN_MATCH_RADIUS_M)
 
-
-def lamp_type_f1_when_overlapping(*args, **kwargs):
-    """Hook: lamp-type F1 where two lamp types share pixels.
-
-    Needs the spectral lamp-type classifier of a later issue
-    (`bandopt.classify`), which does not exist yet. Deliberately not faked:
-    plug the classifier in here (inputs: the band radiance image at a GSD,
-    the per-type illuminance/uplight images from `render` as the truth of
-    which types share each pixel).
-    """
-    raise NotImplementedError(
-        "lamp-type F1 for overlapping lights needs the classifier of a later issue "
-        "(bandopt.classify); not implemented here on purpose."
-    )
