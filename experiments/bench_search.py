@@ -14,6 +14,10 @@ from pathlib import Path
 import numpy as np
 
 
+EVALS_PER_DIM = 60
+"""Same budget rule as the main job (experiments.search.EVALS_PER_DIM)."""
+
+
 def _best_of(fn, repeat=5):
     fn()
     times = []
@@ -73,7 +77,12 @@ def main(argv=None) -> int:
     p.add_argument("--preset", default="tiny")
     p.add_argument("--target", default="all")
     p.add_argument("--max-fwhm-nm", type=float, default=100.0)
-    p.add_argument("--max-evals", type=int, default=300)
+    p.add_argument(
+        "--max-evals",
+        type=int,
+        default=None,
+        help="budget per search (default: the main job's 60 per dimension)",
+    )
     p.add_argument("--seeds", default="0,1,2")
     p.add_argument("--chunk", type=int, default=1024)
     p.add_argument("--out", default="results/bench/search.json")
@@ -126,6 +135,7 @@ def main(argv=None) -> int:
         u37 = np.full(space.dim, 0.37)
         t_single = _best_of(lambda v=value, u=u37: float(v(u)), 20)
         t_vg = _best_of(lambda f=vg, u=u37: f(u)[0].block_until_ready(), 20)
+        budget = args.max_evals or EVALS_PER_DIM * space.dim
         glob = []
         for seed in (int(s) for s in args.seeds.split(",")):
             for alg in ("mlsl", "direct", "crs2"):
@@ -134,7 +144,7 @@ def main(argv=None) -> int:
                     vg,
                     space.dim,
                     algorithm=alg,
-                    max_evals=args.max_evals,
+                    max_evals=budget,
                     seed=seed,
                 )
                 reached = r.loss <= grid.loss * (1 + 1e-9)
