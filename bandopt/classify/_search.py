@@ -34,6 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..search._problem import Space
 from ..sensor import BandSet, SensorParams, slit_super_gaussian
 from ._data import ScenarioTable, radiance_from_response
 from ._features import features
@@ -42,37 +43,14 @@ from ._metrics import macro_f1_int
 
 
 @dataclasses.dataclass(frozen=True)
-class SearchBox:
-    """`n_bands` free bands: supports in [lower_nm, upper_nm], FWHM in
-    [min_fwhm_nm, max_fwhm_nm], fixed shape exponent. Unit box
-    `u = (centre part (n), FWHM part (n))` as in `bandopt.search`. [nm]"""
+class SearchBox(Space):
+    """`n_bands` free bands, no panchromatic band: the search box of
+    `bandopt.search.Space` with `pan="none"` (supports in [lower_nm,
+    upper_nm], FWHM in [min_fwhm_nm, max_fwhm_nm], fixed shape exponent, unit
+    box `u = (centre part (n), FWHM part (n))`), plus the responses, band set
+    and start point the classification search needs. [nm]"""
 
-    n_bands: int
-    lower_nm: float = 380.0
-    upper_nm: float = 900.0
-    min_fwhm_nm: float = 15.0
-    max_fwhm_nm: float = 200.0
-    shape_k: float = 6.0
-
-    def __post_init__(self):
-        if not (isinstance(self.n_bands, int) and self.n_bands >= 1):
-            raise ValueError(f"n_bands must be an int >= 1, got {self.n_bands!r}.")
-        if not 0 < self.min_fwhm_nm < self.max_fwhm_nm <= self.upper_nm - self.lower_nm:
-            raise ValueError(
-                "Need 0 < min_fwhm_nm < max_fwhm_nm <= upper_nm - lower_nm."
-            )
-
-    @property
-    def dim(self) -> int:
-        return 2 * self.n_bands
-
-    def physical(self, u):
-        """Unit box -> (centre_nm, fwhm_nm). [nm]"""
-        u = jnp.asarray(u).reshape(2, self.n_bands)
-        fwhm = self.min_fwhm_nm + (self.max_fwhm_nm - self.min_fwhm_nm) * u[1]
-        span = self.upper_nm - self.lower_nm
-        centre = self.lower_nm + 0.5 * fwhm + (span - fwhm) * u[0]
-        return centre, fwhm
+    pan: str = "none"
 
     def response(self, u, wavelength_nm):
         c, f = self.physical(u)
@@ -98,11 +76,7 @@ class SearchBox:
         """Evenly spaced 40 nm bands over 420-860 nm, as a unit-box point."""
         n = self.n_bands
         c = np.linspace(420.0, 860.0, n) if n > 1 else np.array([640.0])
-        f = np.full(n, 40.0)
-        span = self.upper_nm - self.lower_nm
-        uf = (f - self.min_fwhm_nm) / (self.max_fwhm_nm - self.min_fwhm_nm)
-        uc = (c - self.lower_nm - 0.5 * f) / (span - f)
-        return np.clip(np.concatenate([uc, uf]), 1e-3, 1 - 1e-3)
+        return np.clip(self.unit(c, np.full(n, 40.0)), 1e-3, 1 - 1e-3)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -29,7 +29,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
+from jaxtyping import Array, ArrayLike, Float
 
 from ..estimate import (
     SEARCH_LAMBDA,
@@ -104,7 +104,7 @@ class Space:
             lo[-1], hi[-1] = self.max_fwhm_nm, self.upper_nm - self.lower_nm - 1e-6
         return lo, hi
 
-    def physical(self, u: Float[Array, " d"]) -> tuple[Array, Array]:
+    def physical(self, u: Float[ArrayLike, " d"]) -> tuple[Array, Array]:
         """Unit box -> (centre_nm, fwhm_nm) of the free bands. [nm]"""
         u = jnp.asarray(u).reshape(2, self.n_free)
         lo, hi = self.fwhm_range()
