@@ -508,42 +508,36 @@ def _build(extend_nir: bool, grid_key: tuple[float, float, float]) -> LampLibrar
             )
         )
 
-    for t in MODELLED_INCANDESCENT_K:
-        values.append(_per_lumen(grid, planck_spectrum(grid, t)))
-        records.append(
-            LampRecord(
-                f"planck_incandescent_{int(t)}k",
-                f"Planck {int(t)} K",
-                "incandescent",
-                "incandescent_halogen",
-                "Planck1901",
-                "planck",
-                "W nm-1 lm-1",
-                (float(grid[0]), float(grid[-1])),
-                False,
-                None,
-                True,
-                False,
-                None,
-            )
+    modelled = [
+        (
+            f"planck_incandescent_{int(t)}k",
+            f"Planck {int(t)} K",
+            "incandescent",
+            "incandescent_halogen",
+            t,
         )
-    for t in MODELLED_FIRE_K:
+        for t in MODELLED_INCANDESCENT_K
+    ] + [
+        (f"planck_fire_{int(t)}k", f"Fire (blackbody) {int(t)} K", "fire", None, t)
+        for t in MODELLED_FIRE_K
+    ]
+    for lamp_id, name, level1, level2, t in modelled:
         values.append(_per_lumen(grid, planck_spectrum(grid, t)))
         records.append(
             LampRecord(
-                f"planck_fire_{int(t)}k",
-                f"Fire (blackbody) {int(t)} K",
-                "fire",
-                None,
-                "Planck1901",
-                "planck",
-                "W nm-1 lm-1",
-                (float(grid[0]), float(grid[-1])),
-                False,
-                None,
-                True,
-                False,
-                None,
+                id=lamp_id,
+                name=name,
+                level1=level1,
+                level2=level2,
+                source="Planck1901",
+                source_set="planck",
+                unit="W nm-1 lm-1",
+                measured_range_nm=(float(grid[0]), float(grid[-1])),
+                extended=False,
+                extension_validated=None,
+                modelled=True,
+                cie_typical=False,
+                excluded=None,
             )
         )
 
