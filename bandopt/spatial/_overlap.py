@@ -6,8 +6,9 @@ noise and quantisation, and every lit pixel is classified with the spectral
 lamp-type classifier of `bandopt.classify` (one-vs-all KNN trained on the
 built-in library for the same band set). A pixel's true type is the type that
 contributes most of its radiance (summed over bands); its *mixing* is the
-share of the other types. F1 (per level-2 class, macro) is scored over the lit
-pixels, and separately over pure (mixing < 10 %) and mixed (>= 10 %) pixels.
+share of the other types. F1 (per level-2 class, macro over the classes that
+dominate some pixel of the subset) is scored over the lit pixels, and
+separately over pure (mixing < 10 %) and mixed (>= 10 %) pixels.
 """
 
 import dataclasses
@@ -79,11 +80,13 @@ def per_type_radiance(scene: SceneImage, bands) -> np.ndarray:
     return np.stack(out)
 
 
-def _macro_f1(truth, pred, labels):
+def _macro_f1(truth, pred):
+    """Macro F1 over the classes present in `truth` (NaN when empty)."""
     from sklearn.metrics import f1_score
 
     if len(truth) == 0:
         return float("nan")
+    labels = sorted(set(truth.tolist()))
     return float(f1_score(truth, pred, labels=labels, average="macro", zero_division=0))
 
 
@@ -119,10 +122,9 @@ def lamp_type_f1_when_overlapping(
     level2 = {r.id: r.level2 for r in lib.records}
     names = np.asarray([level2[t] for t in scene.lamps.lamp_types], dtype=object)
     truth = names[dominant]
-    pixels = seen[:, lit].T  # (n, b)
-    ok = np.all(pixels > 0, axis=1)  # log-ratio features need positive radiance
-    _, pred = predict_lamp_types(np.where(ok[:, None], pixels, 1.0), bands)
-    pred = np.where(ok, np.asarray(pred, dtype=object), "unknown")
+    pixels = seen[:, lit].T  # (n, b); negative noisy bands count as 0 (classifier)
+    _, pred = predict_lamp_types(pixels, bands)
+    pred = np.asarray(pred, dtype=object)
     labels = sorted(set(truth.tolist()))
     mixed = minority >= MIXED_SHARE
     per_class = f1_score(truth, pred, labels=labels, average=None, zero_division=0)
@@ -131,9 +133,9 @@ def lamp_type_f1_when_overlapping(
         n_lit=int(lit.sum()),
         mixed_fraction=float(mixed.mean()) if lit.any() else float("nan"),
         mean_minority_share=float(minority.mean()) if lit.any() else float("nan"),
-        macro_f1=_macro_f1(truth, pred, labels),
+        macro_f1=_macro_f1(truth, pred),
         accuracy=float(np.mean(truth == pred)) if lit.any() else float("nan"),
-        f1_pure=_macro_f1(truth[~mixed], pred[~mixed], labels),
-        f1_mixed=_macro_f1(truth[mixed], pred[mixed], labels),
+        f1_pure=_macro_f1(truth[~mixed], pred[~mixed]),
+        f1_mixed=_macro_f1(truth[mixed], pred[mixed]),
         f1_per_class={lab: float(v) for lab, v in zip(labels, per_class, strict=True)},
     )
