@@ -55,12 +55,16 @@ class NloptObjective:
         self.trace: list[
             tuple[int, float]
         ] = []  # (evaluation, best loss) at improvements
+        self.trace_s: list[float] = []  # seconds since the first call, same points
+        self._t0: float | None = None
 
     def __call__(self, x: np.ndarray, grad: np.ndarray) -> float:
         import nlopt
 
         if self.n_evals >= self.max_evals:
             raise nlopt.ForcedStop("evaluation budget reached")
+        if self._t0 is None:
+            self._t0 = time.perf_counter()
         self.n_evals += 1
         if grad.size > 0:
             f, g = self.value_and_grad(x)
@@ -75,6 +79,7 @@ class NloptObjective:
         if f < self.best_f:
             self.best_f, self.best_x = f, np.array(x, float)
             self.trace.append((self.n_evals, f))
+            self.trace_s.append(time.perf_counter() - self._t0)
         return f
 
 
@@ -91,6 +96,9 @@ class GlobalResult:
     status: str
     seed: int
     trace: list[tuple[int, float]]
+    trace_s: list[float] = dataclasses.field(default_factory=list)
+    """Wall time [s] since the first evaluation at each `trace` point (not
+    reproducible, unlike `trace`)."""
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -172,4 +180,5 @@ def global_search(
         status,
         int(seed),
         [(int(i), float(f)) for i, f in obj.trace],
+        [float(t) for t in obj.trace_s],
     )
