@@ -46,9 +46,7 @@ def search_tasks(
             pan=pan,
             fold=f,
             seed=seed,
-            max_evals=(
-                max_evals if max_evals is not None else EVALS_PER_DIM * 2 * n
-            ),
+            max_evals=(max_evals if max_evals is not None else EVALS_PER_DIM * 2 * n),
             preset=preset,
             noise=noise,
         )
@@ -95,15 +93,26 @@ def do_sweep(args, targets) -> list:
 # comparison
 
 
-def _collect(out: Path):
+def _collect(out: Path, args):
+    """Results of exactly the search tasks this configuration defines (seed,
+    preset, budget, atmospheres, warm start: the task hash), so results of
+    earlier runs with other settings in the same folder are never mixed in."""
+    from bandopt.search._sweep import task_path
+
+    ns = [int(v) for v in args.bands.split(",")]
+    expected = search_tasks(
+        ["ler", "g", "cct", "all"],
+        ns,
+        seed=args.seed,
+        max_evals=args.max_evals,
+        preset=args.preset,
+    )
     ours = {}
-    for p in sorted((out / "tasks").glob("*.json")):
-        if p.name.endswith(".failed.json"):
+    for t in expected:
+        p = task_path(out, t)
+        if not p.is_file():
             continue
         r = json.loads(p.read_text())
-        t = r["task"]
-        if t.get("kind", "search") != "search":
-            continue
         key = (t["target"], t["n_bands"], t["pan"], t["preset"], t["noise"])
         ours.setdefault(key, {})[t["fold"]] = r
     return ours
@@ -230,7 +239,7 @@ def compare(args) -> dict:
             "title": REFERENCE_SENSORS[key].title,
             **mae_ci(r["lamp_errors"], r["lamp_index"], classes),
         }
-    ours_raw = _collect(out)
+    ours_raw = _collect(out, args)
     ours, pooled = {}, {}
     for (target, n, pan, preset, noise), folds in sorted(ours_raw.items(), key=str):
         if preset != args.preset or noise is not None:
