@@ -8,6 +8,11 @@ renderer) with a box pixel filter returns the pixel-averaged radiance
 (`pip install mitsuba`); its CPU variant `scalar_rgb` is used, with the same
 number in all three RGB channels (a grey, monochromatic check: the spectral
 part of the pipeline is linear and tested elsewhere).
+
+Scenes with buildings (occluders), which the flat analytic renderer does not
+handle, go through the same Mitsuba scene with `buildings`: axis-aligned boxes
+standing on the plane, Lambertian with the ground's reflectance, casting
+shadows (`render_point_light(..., buildings=[(x0, y0, x1, y1, height_m)])`).
 """
 
 import math
@@ -33,16 +38,21 @@ def render_point_light(
     pixels: int,
     spp: int,
     seed: int = 0,
+    buildings=(),
 ) -> np.ndarray:
     """(pixels, pixels) Mitsuba radiance of the plane `[-extent/2, extent/2]²`
     under an isotropic point light above its centre. [cd m⁻² sr⁻¹ per unit of
-    `intensity_cd`, i.e. radiance in the light's unit per m²]"""
+    `intensity_cd`, i.e. radiance in the light's unit per m²]
+
+    `buildings`: boxes `(x0, y0, x1, y1, height_m)` [m] on the plane; they cast
+    shadows and their roofs are seen by the nadir camera. Row 0 of the image is
+    +y, column 0 is -x (Mitsuba's film orientation)."""
     import mitsuba as mi
 
     mi.set_variant("scalar_rgb")
     t = mi.ScalarTransform4f
     half = extent_m / 2
-    scene = mi.load_dict(
+    desc = dict(
         {
             "type": "scene",
             "integrator": {"type": "path", "max_depth": 2},
@@ -76,6 +86,23 @@ def render_point_light(
             },
         }
     )
+    for k, (x0, y0, x1, y1, h) in enumerate(buildings):
+        if not (x1 > x0 and y1 > y0 and h > 0):
+            raise ValueError(
+                f"buildings[{k}] = {(x0, y0, x1, y1, h)}: need x1 > x0, y1 > y0, "
+                "height_m > 0."
+            )
+        cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+        desc[f"building_{k}"] = {
+            "type": "cube",
+            "to_world": t().translate([cx, cy, h / 2])
+            @ t().scale([(x1 - x0) / 2, (y1 - y0) / 2, h / 2]),
+            "bsdf": {
+                "type": "diffuse",
+                "reflectance": {"type": "rgb", "value": [reflectance] * 3},
+            },
+        }
+    scene = mi.load_dict(desc)
     img = mi.render(scene, seed=seed)
     return np.array(img)[:, :, 0].astype(float)
 
