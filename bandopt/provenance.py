@@ -57,6 +57,23 @@ def data_versions() -> dict:
     return out
 
 
+def lamp_library_info() -> dict:
+    """Whether the lamp spectra used carry the near-infrared extension."""
+    from .datasets.lamps import library
+
+    lib = library()  # every experiment uses the default: extension on
+    extended = [r for r in lib.records if r.extended]
+    return {
+        "nir_extension": "on: spectra measured only to 780 nm are extended to 900 nm "
+        "by bandopt.datasets.nir (switch: library(extend_nir=False))",
+        "spectra": len(lib.records),
+        "extended_spectra": len(extended),
+        "extended_unvalidated": sorted(
+            r.id for r in extended if not r.extension_validated
+        ),
+    }
+
+
 def manifest(*, seed: int | None = None, config: dict | None = None, **extra) -> dict:
     """A provenance record: git commit (and whether the tree was dirty), package
     versions, seed, data versions, command line, machine, time."""
@@ -74,6 +91,7 @@ def manifest(*, seed: int | None = None, config: dict | None = None, **extra) ->
         "python": sys.version.split()[0],
         "seed": seed,
         "data_versions": data_versions(),
+        "lamp_library": lamp_library_info(),
         "command_line": sys.argv,
         "machine": {"platform": platform.platform(), "processor": platform.machine()},
         "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
