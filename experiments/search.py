@@ -596,6 +596,712 @@ def budget(args) -> None:
     (out / "budget_table.json").write_text(json.dumps(rows, indent=2) + "\n")
 
 
+# ------------------------------------------------------------------------------
+# stability study (`run`, issue 13)
+
+STUDY = {
+    "noise": "P4",
+    "partitions": 4,
+    "ns": (1, 2, 3, 4, 5, 6),
+    "alphas": (0.0, 0.25, 0.5, 0.75, 1.0),
+    "restarts": 12,
+    "steps": 200,
+}
+"""The `run` study: photon noise at the signal of EN 13201 class P4 (scenes
+lit to P4, thesis Table 2.3 sensor), 4 lamp partitions x 3 outer folds = 12
+resamples, band counts 1..6 (+ fixed pan), objective weights alpha between
+estimation (0) and classification (1), 12 restarts x 200 Adam steps."""
+
+RUNNER = "bandopt.search._study:run_study_task"
+
+
+def _study_tasks(args, *, ns=None, alphas=(0.0,), refs=False):
+    from bandopt.search._study import make_study_task
+    from bandopt.sensor.reference import REFERENCE_SENSORS
+
+    common = dict(
+        preset=args.preset,
+        noise=STUDY["noise"],
+        partitions=args.partitions,
+        seed=args.seed,
+        restarts=STUDY["restarts"],
+        steps=args.steps,
+        scorer=args.scorer,
+    )
+    tasks = [
+        make_study_task(n_bands=n, alpha=float(a), **common)
+        for n in sorted(ns or (), reverse=True)  # the slowest first
+        for a in alphas
+    ]
+    if refs:
+        tasks += [make_study_task(sensor=k, **common) for k in REFERENCE_SENSORS]
+    return tasks
+
+
+class _Progress:
+    """Progress with an estimate of the time left (stderr)."""
+
+    def __init__(self, total_tasks: int, workers: int):
+        self.t0 = time.perf_counter()
+        self.total = total_tasks
+        self.workers = max(1, workers)
+
+    def __call__(self, done, total, status):
+        el = time.perf_counter() - self.t0
+        left = el / done * (total - done) if done else float("nan")
+        name = Path(status["path"]).stem
+        mark = "ok" if status.get("ok") else f"FAILED {status.get('error')}"
+        print(
+            f"[{done}/{total}] {name}: {mark} | elapsed {el:5.0f} s, "
+            f"about {left:4.0f} s left in this phase",
+            file=sys.stderr,
+            flush=True,
+        )
+
+
+def _sweep(tasks, args, label):
+    from bandopt.search import run_sweep
+    from bandopt.search._sweep import task_path
+
+    out = Path(args.out)
+    cached = [t for t in tasks if task_path(out, t).is_file()]
+    if cached and args.force:
+        for t in cached:
+            task_path(out, t).unlink()
+        print(
+            f"{label}: --force: recomputing {len(cached)} cached tasks", file=sys.stderr
+        )
+    elif cached:
+        print(
+            f"{label}: REUSING {len(cached)} of {len(tasks)} task results of the "
+            f"identical configuration (task hash in the file name) from "
+            f"{out}/tasks; pass --force to recompute them",
+            file=sys.stderr,
+        )
+    todo = len(tasks) - (0 if args.force else len(cached))
+    print(
+        f"{label}: {todo} tasks to run on "
+        f"{'Dask ' + args.scheduler if args.scheduler else f'{args.workers} workers'}",
+        file=sys.stderr,
+        flush=True,
+    )
+    res = run_sweep(
+        tasks,
+        out,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        runner=RUNNER,
+        progress=_Progress(todo, args.workers),
+    )
+    missing = [t for t, r in zip(tasks, res, strict=True) if r is None]
+    if missing:
+        raise RuntimeError(
+            f"{label}: {len(missing)} tasks failed; see {out}/tasks/*.failed.json"
+        )
+    return res
+
+
+def _tolerance(ctx, bands, res, scorer, seed, sd):
+    """Errors of the recommended set when the built filters deviate, with the
+    estimator fitted to the nominal bands (an uncalibrated deviation)."""
+    from bandopt.estimate import lamp_abs_errors
+    from bandopt.search._analysis import perturbed_bands
+    from bandopt.search._study import get_scorer
+
+    rad0 = ctx.radiance(bands, seed=seed)
+    fits = [get_scorer(scorer)(ctx, bands, rad0, r.train, list(r.inner)) for r in res]
+    classes = ctx.table.classes
+    from bandopt.folds import class_balanced_weights
+
+    def mae(pb):
+        rad = ctx.radiance(pb, seed=seed)
+        parts = {}
+        for r, fit in zip(res, fits, strict=True):
+            e = lamp_abs_errors(fit(rad, pb), ctx.table, r.test)
+            parts.setdefault(r.partition, []).append((r.test, e))
+        rows = []
+        for items in parts.values():
+            idx = np.concatenate([i for i, _ in items])
+            err = np.concatenate([e for _, e in items])
+            row = []
+            for m in range(3):
+                ok = np.isfinite(err[:, m])
+                w = class_balanced_weights(classes[idx[ok]])
+                row.append(float(np.sum(w * err[ok, m])))
+            rows.append(row)
+        return np.mean(rows, axis=0)
+
+    nominal = mae(bands)
+    b = len(bands.names)
+    rows = []
+
+    def add(band, param, value, m):
+        ratio = m / nominal
+        rows.append(
+            {
+                "band": band,
+                "parameter": param,
+                "value": float(value),
+                "mae_LER": float(m[0]),
+                "mae_G": float(m[1]),
+                "mae_CCT": float(m[2]),
+                "ratio_LER": float(ratio[0]),
+                "ratio_G": float(ratio[1]),
+                "ratio_CCT": float(ratio[2]),
+                "within_10pct": bool(np.all(ratio <= 1.10)),
+            }
+        )
+
+    shifts = np.arange(-10.0, 10.01, 1.0)
+    scales = np.round(np.arange(0.80, 1.2001, 0.02), 4)
+    for i, name in enumerate(bands.names):
+        for d in shifts:
+            dc = np.zeros(b)
+            dc[i] = d
+            add(name, "centre_shift_nm", d, mae(perturbed_bands(bands, dc=dc)))
+        for s in scales:
+            sc = np.ones(b)
+            sc[i] = s
+            add(name, "fwhm_factor", s, mae(perturbed_bands(bands, scale=sc)))
+    for leak in (0.0, 0.0025, 0.005, 0.01, 0.02, 0.05):
+        add("all", "leakage", leak, mae(perturbed_bands(bands, leakage=leak)))
+    for a in np.arange(0.0, 20.01, 2.0):
+        add("all", "aoi_deg", a, mae(perturbed_bands(bands, aoi_deg=a)))
+
+    def interval(band, param, centre_value):
+        rr = [r for r in rows if r["band"] == band and r["parameter"] == param]
+        vals = np.array([r["value"] for r in rr])
+        ok = np.array([r["within_10pct"] for r in rr])
+        o = np.argsort(vals)
+        vals, ok = vals[o], ok[o]
+        j = int(np.argmin(np.abs(vals - centre_value)))
+        if not ok[j]:
+            return None
+        lo = j
+        while lo > 0 and ok[lo - 1]:
+            lo -= 1
+        hi = j
+        while hi < len(vals) - 1 and ok[hi + 1]:
+            hi += 1
+        return [float(vals[lo]), float(vals[hi])]
+
+    per_band = {}
+    for name in bands.names:
+        ci = interval(name, "centre_shift_nm", 0.0)
+        fi = interval(name, "fwhm_factor", 1.0)
+        per_band[name] = {
+            "centre_shift_interval_nm": ci,
+            "fwhm_factor_interval": fi,
+            "meets_centre_pm5nm": bool(ci is not None and ci[0] <= -5 and ci[1] >= 5),
+            "meets_fwhm_pm10pct": bool(
+                fi is not None and fi[0] <= 0.9 and fi[1] >= 1.1
+            ),
+        }
+    leak = interval("all", "leakage", 0.0)
+    aoi = interval("all", "aoi_deg", 0.0)
+    from bandopt.search._analysis import AOI_N_EFF, LEAKAGE_NOTE
+
+    return rows, {
+        "rule": "specification interval: the contiguous range of each deviation "
+        "(one band at a time for centre and FWHM; all bands for leakage and "
+        "angle of incidence) around nominal within which the partition-mean "
+        "MAE of LER, G and CCT all stay <= 1.10 x nominal; estimator fitted to "
+        "the nominal bands (deviation not calibrated out), same noise draws",
+        "nominal_mae": dict(zip(("LER", "G", "CCT"), map(float, nominal), strict=True)),
+        "per_band": per_band,
+        "leakage_interval": leak,
+        "meets_leakage_1pct": bool(leak is not None and leak[1] >= 0.01),
+        "aoi_interval_deg": aoi,
+        "aoi_model": f"centre * sqrt(1 - sin^2(theta) / n_eff^2), n_eff = {AOI_N_EFF}",
+        "leakage_model": LEAKAGE_NOTE,
+        "grid": {"centre_shift_nm": shifts.tolist(), "fwhm_factor": scales.tolist()},
+    }
+
+
+def plot_stability(designs, stab, path, title):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax, ax2) = plt.subplots(
+        1, 2, figsize=(12, 4.8), gridspec_kw={"width_ratios": [3, 1]}
+    )
+    for i, d in enumerate(designs):
+        for j, (c, f) in enumerate(zip(d["centre_nm"], d["fwhm_nm"], strict=True)):
+            ax.plot([c - f / 2, c + f / 2], [i, i], color=f"C{j}", lw=3, alpha=0.6)
+            ax.plot([c], [i], "k|", ms=8)
+    m = stab["medoid_resample"]
+    for j, (c, f) in enumerate(zip(stab["centre_nm"], stab["fwhm_nm"], strict=True)):
+        lo, hi = stab["centre_interval_nm"][j]
+        ax.axvspan(lo, hi, color=f"C{j}", alpha=0.12)
+        ax.plot([c - f / 2, c + f / 2], [len(designs) + 0.8] * 2, color=f"C{j}", lw=6)
+    ax.axhline(m, color="k", ls=":", lw=0.8)
+    ax.set_yticks(list(range(len(designs))) + [len(designs) + 0.8])
+    ax.set_yticklabels(
+        [f"p{d['partition']} f{d['fold']}" for d in designs] + ["recommended"],
+        fontsize=7,
+    )
+    ax.set_xlabel(
+        "wavelength [nm] (bar: centre +/- FWHM/2; shade: 10-90 % centre interval)"
+    )
+    ax.set_title(title, fontsize=9)
+    freq = stab["region_frequency"]
+    ax2.barh(list(freq), list(freq.values()), color="0.5")
+    ax2.set_xlim(0, 1)
+    ax2.set_xlabel("fraction of resamples with a band there")
+    ax2.tick_params(labelsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def plot_pareto(cands, refs, rec_key, path, note):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 5.5))
+    xs = np.array([c["norm_mae_mean"] for c in cands.values()])
+    ys = np.array([1 - c["f1_mean"] for c in cands.values()])
+    ss = np.array([c["snr_median"] for c in cands.values()])
+    sc = ax.scatter(xs, ys, c=np.log10(ss), cmap="viridis", s=60, zorder=3)
+    for (k, c), x, y in zip(cands.items(), xs, ys, strict=True):
+        ax.annotate(k, (x, y), fontsize=7, xytext=(3, 3), textcoords="offset points")
+        if c.get("pareto"):
+            ax.scatter([x], [y], s=160, facecolors="none", edgecolors="r", zorder=4)
+    r = cands[rec_key]
+    ax.scatter(
+        [r["norm_mae_mean"]],
+        [1 - r["f1_mean"]],
+        marker="*",
+        s=300,
+        c="r",
+        zorder=5,
+        label=f"recommended: {rec_key}",
+    )
+    for k, v in refs.items():
+        ax.scatter(
+            [v["norm_mae_mean"]], [1 - v["f1_mean"]], marker="x", color="0.4", s=30
+        )
+        ax.annotate(k, (v["norm_mae_mean"], 1 - v["f1_mean"]), fontsize=6, color="0.4")
+    fig.colorbar(sc, label="log10 SNR of the weakest band (median scene, class P4)")
+    ax.set_xlabel("normalised MAE (LER, G, CCT), mean over partitions")
+    ax.set_ylabel("1 - level-2 macro F1 (KNN), mean over partitions")
+    ax.set_title(
+        "Pareto front (red rings: non-dominated in MAE, 1-F1, -log SNR)", fontsize=9
+    )
+    ax.legend(fontsize=8)
+    fig.text(0.01, 0.005, note, fontsize=6)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def study(args) -> dict:
+    """The stability study (see `STUDY`): band count, Pareto, recommendation,
+    tolerance and comparison; writes results/search/ and the recommendation."""
+    from bandopt.estimate import METRICS, UNITS
+    from bandopt.provenance import write_manifest
+    from bandopt.results import update_recommendation
+    from bandopt.search._analysis import (
+        NORMALISATION_NOTE,
+        PARETO_RULE,
+        band_count_choice,
+        design_intervals,
+        knee,
+        lamp_mean_errors,
+        pareto_mask,
+        summary,
+        truth_sd,
+    )
+    from bandopt.search._report import paired_reduction
+    from bandopt.search._study import SCORER_NOTES, _resamples, _space
+
+    t_start = time.perf_counter()
+    out = Path(args.out)
+    ns = [int(v) for v in args.bands.split(",")]
+    # phase 1: band counts (alpha = 0) and reference sensors
+    p1 = _study_tasks(args, ns=ns, alphas=(0.0,), refs=True)
+    r1 = _sweep(p1, args, "phase 1 (band counts, reference sensors)")
+    t0 = p1[0]
+    ctx, res = _resamples(
+        t0["preset"], t0["noise"], t0["atmospheres"], t0["partitions"], t0["seed"]
+    )
+    classes = ctx.table.classes
+    sd = truth_sd(ctx.table)
+    count = {r["task"]["n_bands"]: r for r in r1 if not r["task"].get("sensor")}
+    refs_raw = {r["task"]["sensor"]: r for r in r1 if r["task"].get("sensor")}
+    count_sum = {n: summary(r["scores"], classes, sd) for n, r in count.items()}
+    choice = band_count_choice(
+        {n: s["per_partition"]["norm_mae"] for n, s in count_sum.items()}
+    )
+    n_star = choice["chosen_n"]
+    print(
+        f"band count: best n = {choice['best_n']}, chosen n = {n_star} (one-SD rule)",
+        file=sys.stderr,
+        flush=True,
+    )
+    # phase 2: objective weights at the chosen n
+    alphas = [a for a in STUDY["alphas"] if a != 0.0]
+    p2 = _study_tasks(args, ns=[n_star], alphas=alphas)
+    r2 = _sweep(p2, args, f"phase 2 (alpha sweep at n = {n_star})")
+    by_alpha = {0.0: count[n_star], **{r["task"]["alpha"]: r for r in r2}}
+    cands = {}
+    for a, r in sorted(by_alpha.items()):
+        s = summary(r["scores"], classes, sd)
+        cands[f"n{n_star}+pan a={a:g}"] = {
+            "n_bands": n_star,
+            "alpha": a,
+            **s,
+            "snr_median": float(np.median(r["snr"])),
+            "max_overlap": float(np.max(r["max_overlap"])),
+        }
+    keys = list(cands)
+    pts = np.array(
+        [
+            [
+                cands[k]["norm_mae_mean"],
+                1 - cands[k]["f1_mean"],
+                -np.log10(max(cands[k]["snr_median"], 1e-9)),
+            ]
+            for k in keys
+        ]
+    )
+    mask = pareto_mask(pts)
+    for k, m in zip(keys, mask, strict=True):
+        cands[k]["pareto"] = bool(m)
+    rec_key = keys[knee(pts, mask)]
+    rec = cands[rec_key]
+    rec_run = by_alpha[rec["alpha"]]
+    stab = design_intervals(rec_run["designs"])
+    space = _space(rec_run["task"], ctx)
+    bands = space.band_set(
+        stab["centre_nm"], stab["fwhm_nm"], name="bandopt-recommended"
+    )
+    # reference sensors and our designs: same partitions, same estimator
+    ref_sum = {}
+    for k, r in refs_raw.items():
+        ref_sum[k] = {
+            "n_bands": r["n_bands_total"],
+            **summary(r["scores"], classes, sd),
+            "snr_median": r["snr"],
+        }
+    designs = {}
+    for n, r in sorted(count.items()):
+        designs[f"n{n}+pan a=0"] = {
+            "n_bands": n,
+            "alpha": 0.0,
+            **count_sum[n],
+            "snr_median": float(np.median(r["snr"])),
+            "max_overlap": float(np.max(r["max_overlap"])),
+            "stability": design_intervals(r["designs"]),
+        }
+    for k, v in cands.items():
+        designs.setdefault(k, v)
+    ours_idx, ours_err = lamp_mean_errors(rec_run["scores"])
+    reductions = {}
+    for k, r in refs_raw.items():
+        ridx, rerr = lamp_mean_errors(r["scores"])
+        red = {
+            "ours": rec_key,
+            **paired_reduction(ours_err, rerr, ours_idx, ridx, classes),
+        }
+        nb = r["n_bands_total"] - 1
+        eq = None
+        if nb in count:
+            eidx, eerr = lamp_mean_errors(count[nb]["scores"])
+            eq = {
+                "ours": f"n{nb}+pan a=0",
+                **paired_reduction(eerr, rerr, eidx, ridx, classes),
+            }
+        reductions[k] = {"recommended": red, "equal_band_count": eq}
+    scorer_note = SCORER_NOTES[args.scorer]
+    summary_json = {
+        "estimator": {
+            "scorer": args.scorer,
+            "note": scorer_note,
+            "search_surrogate": "closed-form ridge on centred log ratios "
+            "inside the inner-CV loss (bandopt.estimate.cv_loss)",
+        },
+        "partitions": args.partitions,
+        "resamples": len(res),
+        "noise": f"photon noise at EN 13201 class {STUDY['noise']} (thesis Table "
+        "2.3 sensor, shot noise); evaluation draws differ from search draws",
+        "normalisation": NORMALISATION_NOTE,
+        "truth_sd": dict(zip(METRICS, map(float, sd), strict=True)),
+        "metric_units": UNITS,
+        "band_count": choice,
+        "pareto": {"rule": PARETO_RULE, "recommended": rec_key},
+        "designs": designs,
+        "references": ref_sum,
+        "reductions": {
+            "note": "relative MAE reduction 1 - MAE_ours / MAE_ref, per-lamp "
+            "errors averaged over partitions, 95 % paired lamp bootstrap "
+            "stratified by class; equal_band_count: ours with the "
+            "reference's total band count (n free + pan) at alpha 0",
+            **reductions,
+        },
+        "context": ctx.config,
+    }
+    (out / "compare.json").write_text(
+        json.dumps(summary_json, indent=1, default=float) + "\n"
+    )
+    with (out / "compare.csv").open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(
+            [
+                "set",
+                "kind",
+                "n_bands_total",
+                "partitions",
+                "metric",
+                "mae_mean",
+                "mae_sd",
+                "f1_mean",
+                "f1_sd",
+            ]
+        )
+        for kind, group in (("ours", designs), ("reference", ref_sum)):
+            for k, v in group.items():
+                nbt = v["n_bands"] + (1 if kind == "ours" else 0)
+                for m in METRICS:
+                    w.writerow(
+                        [
+                            k,
+                            kind,
+                            nbt,
+                            v["partitions"],
+                            m,
+                            v["mae_mean"][m],
+                            v["mae_sd"][m],
+                            v["f1_mean"],
+                            v["f1_sd"],
+                        ]
+                    )
+    # Pareto and stability outputs
+    (out / "pareto.json").write_text(
+        json.dumps(
+            {"rule": PARETO_RULE, "recommended": rec_key, "candidates": cands},
+            indent=1,
+            default=float,
+        )
+        + "\n"
+    )
+    stab_json = {
+        "set": rec_key,
+        **stab,
+        "per_resample": [
+            {**d, "partition": s["partition"], "fold": s["fold"], "inner_loss": l}
+            for d, s, l in zip(
+                rec_run["designs"],
+                rec_run["scores"],
+                rec_run["inner_loss"],
+                strict=True,
+            )
+        ],
+    }
+    (out / "stability.json").write_text(json.dumps(stab_json, indent=1) + "\n")
+    plot_stability(
+        stab_json["per_resample"],
+        stab,
+        out / "stability.png",
+        f"Designs of {rec_key} on {len(res)} lamp resamples "
+        f"({args.partitions} partitions x 3 folds); bottom: recommended (medoid)",
+    )
+    plot_pareto(cands, ref_sum, rec_key, out / "pareto.png", PARETO_RULE)
+    # tolerance
+    print("tolerance analysis of the recommended set", file=sys.stderr, flush=True)
+    rows, tol = _tolerance(ctx, bands, res, args.scorer, args.seed, sd)
+    with (out / "tolerance.csv").open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    (out / "tolerance.json").write_text(json.dumps(tol, indent=1) + "\n")
+    # recommendation
+    band_rows = []
+    c_int, f_int = stab["centre_interval_nm"], stab["fwhm_interval_nm"]
+    for i, name in enumerate(bands.names):
+        c, f = float(bands.centre_nm[i]), float(bands.fwhm_nm[i])
+        band_rows.append(
+            {
+                "name": name,
+                "centre_nm": c,
+                "fwhm_nm": f,
+                "centre_interval_nm": c_int[i] if i < len(c_int) else [c, c],
+                "fwhm_interval_nm": f_int[i] if i < len(f_int) else [f, f],
+                "centre_tolerance_nm": tol["per_band"][name][
+                    "centre_shift_interval_nm"
+                ],
+                "fwhm_tolerance_factor": tol["per_band"][name]["fwhm_factor_interval"],
+            }
+        )
+    update_recommendation(
+        "spectral",
+        {
+            "set": rec_key,
+            "bands": band_rows,
+            "band_set": bands.to_dict(),
+            "intervals": "centre/fwhm_interval_nm: 10th-90th percentile over "
+            f"{len(res)} lamp resamples (stability); the PAN band is fixed",
+            "tolerances": "centre_tolerance_nm / fwhm_tolerance_factor: deviation "
+            "within which all errors stay within 10 % (tolerance.json)",
+            "rules": {
+                "band_count": choice["rule"],
+                "pareto": PARETO_RULE,
+                "design": stab["rule"],
+            },
+            "test_mae": {
+                "partitions": rec["partitions"],
+                "mae_mean": rec["mae_mean"],
+                "mae_sd": rec["mae_sd"],
+                "f1_mean": rec["f1_mean"],
+                "unit": UNITS,
+            },
+            "estimator": scorer_note,
+            "source": str(out / "compare.json"),
+        },
+    )
+    BandSetJson = bands.to_json
+    BandSetJson(out / "recommended_bands.json")
+    wall = time.perf_counter() - t_start
+    write_manifest(
+        out,
+        seed=args.seed,
+        config={
+            "study": {
+                k: list(v) if isinstance(v, tuple) else v for k, v in STUDY.items()
+            },
+            "partitions": args.partitions,
+            "steps": args.steps,
+            "scorer": args.scorer,
+            "bands": args.bands,
+            "context": ctx.config,
+            "wall_s": wall,
+            "modelled_spectra_scored": "see context (library selection scored_only)",
+        },
+    )
+    write_study_readme(summary_json, stab, tol, rec_key, wall, out)
+    print(f"study wall time {wall:.0f} s", file=sys.stderr)
+    return summary_json
+
+
+def write_study_readme(s, stab, tol, rec_key, wall, out: Path) -> None:
+    """Replace this experiment's section in results/README.md."""
+    readme = Path("results") / "README.md"
+    start, end = "<!-- search:start -->", "<!-- search:end -->"
+    ch = s["band_count"]
+    lines = ["n (+pan) | norm. MAE mean +/- SD | LER lm/W | G | CCT K | F1 | SNR"]
+    for k, v in s["designs"].items():
+        if not k.endswith("a=0"):
+            continue
+        lines.append(
+            f"{k:12s} | {v['norm_mae_mean']:.3f} +/- {v['norm_mae_sd']:.3f} | "
+            f"{v['mae_mean']['LER']:.1f} +/- {v['mae_sd']['LER']:.1f} | "
+            f"{v['mae_mean']['G']:.3f} +/- {v['mae_sd']['G']:.3f} | "
+            f"{v['mae_mean']['CCT']:.0f} +/- {v['mae_sd']['CCT']:.0f} | "
+            f"{v['f1_mean']:.2f} | {v['snr_median']:.1f}"
+        )
+    pair = "; ".join(
+        f"{k}: {v['mean']:+.3f} +/- {v['sd']:.3f} ({v['partitions_better']}/"
+        f"{v['partitions']} partitions better)"
+        for k, v in ch["paired_difference_to_next_n"].items()
+    )
+    alines = []
+    for k, v in s["designs"].items():
+        if k.startswith(f"n{ch['chosen_n']}+pan"):
+            alines.append(
+                f"{k}: norm. MAE {v['norm_mae_mean']:.3f} +/- {v['norm_mae_sd']:.3f}, "
+                f"F1 {v['f1_mean']:.2f} +/- {v['f1_sd']:.2f}, SNR {v['snr_median']:.1f}"
+                f"{' (Pareto)' if v.get('pareto') else ''}"
+            )
+    rlines = [
+        "sensor | bands | LER | G | CCT | F1 | reduction LER / G / CCT [95 % CI] (recommended) | at equal band count"
+    ]
+    for k, v in s["references"].items():
+        red = s["reductions"][k]["recommended"]
+        eq = s["reductions"][k]["equal_band_count"]
+
+        def fmt(r):
+            return " / ".join(
+                f"{r[m]['reduction']:.0%} [{r[m]['ci95'][0]:.0%}, {r[m]['ci95'][1]:.0%}]"
+                for m in ("LER", "G", "CCT")
+            )
+
+        rlines.append(
+            f"{k} | {v['n_bands']} | {v['mae_mean']['LER']:.1f} | {v['mae_mean']['G']:.3f} | "
+            f"{v['mae_mean']['CCT']:.0f} | {v['f1_mean']:.2f} | {fmt(red)} | "
+            f"{fmt(eq) + ' (' + eq['ours'] + ')' if eq else 'n/a'}"
+        )
+    blines = [
+        f"{n}: {c:.0f} nm [{ci[0]:.0f}, {ci[1]:.0f}], FWHM {f:.0f} nm [{fi[0]:.0f}, {fi[1]:.0f}]"
+        for n, c, ci, f, fi in zip(
+            [f"B{i + 1}" for i in range(len(stab["centre_nm"]))],
+            stab["centre_nm"],
+            stab["centre_interval_nm"],
+            stab["fwhm_nm"],
+            stab["fwhm_interval_nm"],
+            strict=True,
+        )
+    ]
+    tl = [
+        f"{b}: centre shift {v['centre_shift_interval_nm']} nm, FWHM factor "
+        f"{v['fwhm_factor_interval']}"
+        for b, v in tol["per_band"].items()
+    ]
+    body = f"""{start}
+## Spectral band search: stability study (`{out}`, `make run`)
+
+Estimator judging every design and reference sensor on the outer folds:
+{s["estimator"]["note"]} (scorer `{s["estimator"]["scorer"]}`); search surrogate:
+{s["estimator"]["search_surrogate"]}. {s["noise"]}. {s["partitions"]} lamp
+partitions x 3 outer folds = {s["resamples"]} resamples (lamp-grouped,
+class-stratified); bands searched on each outer training set (12 restarts x
+Adam, all resamples and restarts in one compiled function), scored on its
+test lamps. Multispectral bands: FWHM >= 20 nm, pairwise overlap <= 0.25,
+supports inside the data (380-900 nm), fixed PAN 400-880 nm. {s["normalisation"]}.
+Wall time of this run: {wall:.0f} s.
+
+Band count ({ch["rule"]}): best n = {ch["best_n"]}, chosen n = {ch["chosen_n"]}.
+Paired difference of normalised MAE to the next n (mean +/- SD over partitions): {pair}.
+
+```
+{chr(10).join(lines)}
+```
+
+Objective weight alpha (0: estimation only, 1: classification surrogate only)
+at n = {ch["chosen_n"]}: {"; ".join(alines)}. Rule: {s["pareto"]["rule"]}.
+Recommended: **{rec_key}**, design = {stab["rule"]}:
+
+```
+{chr(10).join(blines)}
+```
+
+Region frequency over resamples: {", ".join(f"{k} {v:.0%}" for k, v in stab["region_frequency"].items())}.
+
+Tolerance ({tol["rule"]}): {"; ".join(tl)}; leakage interval {tol["leakage_interval"]}
+(1 % met: {tol["meets_leakage_1pct"]}); angle of incidence {tol["aoi_interval_deg"]} deg.
+
+Comparison (same estimator, same partitions; reductions with 95 % paired CIs):
+
+```
+{chr(10).join(rlines)}
+```
+
+Files: `compare.json`/`.csv`, `pareto.json`/`.png`, `stability.json`/`.png`,
+`tolerance.csv`/`.json`, `recommended_bands.json`, `manifest.json`. Task
+results are cached in `tasks/` (not committed); a rerun with the identical
+configuration says it reuses them, `--force` recomputes.
+{end}"""
+    text = readme.read_text() if readme.is_file() else "# Results\n"
+    if start in text and end in text:
+        text = text[: text.index(start)] + body + text[text.index(end) + len(end) :]
+    else:
+        text = text.rstrip() + "\n\n" + body + "\n"
+    readme.write_text(text)
+
+
 def main(argv=None) -> int:
     from bandopt import configure
 
@@ -612,7 +1318,19 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--preset", default="search")
     p.add_argument("--bands", default="1,2,3,4,5,6", help="band counts (without pan)")
+    p.add_argument("--partitions", type=int, default=STUDY["partitions"])
+    p.add_argument("--steps", type=int, default=STUDY["steps"])
+    p.add_argument(
+        "--scorer",
+        default=None,
+        help="outer-fold estimator (default: bandopt.search._study.DEFAULT_SCORER)",
+    )
+    p.add_argument("--force", action="store_true", help="recompute cached tasks")
     args = p.parse_args(argv)
+    if args.scorer is None:
+        from bandopt.search._study import DEFAULT_SCORER
+
+        args.scorer = DEFAULT_SCORER
     Path(args.out).mkdir(parents=True, exist_ok=True)
     if args.command == "budget":
         budget(args)
@@ -623,7 +1341,8 @@ def main(argv=None) -> int:
     elif args.command == "sweep":
         do_sweep(args, ["ler", "g", "cct", "all"])
     elif args.command == "run":
-        do_sweep(args, ["all"])
+        study(args)
+        return 0
     compare(args)
     return 0
 

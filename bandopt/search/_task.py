@@ -205,6 +205,10 @@ def task_id(task: dict) -> str:
     kind = task.get("kind", "search")
     if kind == "reference":
         return f"ref_{task['sensor']}_{h}"
+    if kind == "stability":
+        if task.get("sensor"):
+            return f"st_ref_{task['sensor']}_{h}"
+        return f"st_n{task['n_bands']}_a{task['alpha']:g}_{h}"
     return (
         f"{task['target']}_n{task['n_bands']}_{task['pan']}_f{fold}_s{task['seed']}_{h}"
     )

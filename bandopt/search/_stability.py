@@ -1,0 +1,367 @@
+"""Band search on many lamp resamples at once: one compiled, batched search.
+
+A *resample* is one outer fold of one lamp partition (repeated grouped,
+class-stratified 3-fold splits, `bandopt.folds.nested_lamp_splits` with seed
+`seed + p` for partition `p`): its bands are searched on the outer training
+lamps (loss = inner-CV error of the closed-form ridge surrogate, two inner
+folds) and judged on the outer test lamps. All resamples and all restarts of
+one band count run in ONE jitted function: `vmap` over resamples (their split
+weights are data) and restarts, Adam on the logit of `Space`'s unit box for a
+fixed number of steps (`lax.scan`), keeping each restart's best point.
+
+Loss of a design for resample `r` (all terms dimensionless):
+
+    (1 - α) · est + α · cls + OVERLAP_WEIGHT · Σ_{i<j} relu(ov_ij - MAX_OVERLAP)²
+
+- `est`: mean over LER, G, CCT of the inner-CV class-balanced MSE divided by
+  the metric's class-balanced variance over the training lamps
+  (`bandopt.estimate.cv_loss` / 3);
+- `cls`: the classification surrogate, the inner-CV class-balanced MSE of a
+  ridge fit to the one-hot level-2 class (a least-squares classifier on the
+  same centred log ratios), divided by `1 - 1/C` (its value when the bands
+  carry no information);
+- `ov_ij`: overlap of free bands i, j, `Σ min(r_i, r_j) / min(Σ r_i, Σ r_j)`
+  (0 disjoint, 1 one band inside the other); the panchromatic band is exempt.
+
+Test lamps carry zero weight in every inner split, so they cannot influence
+the search (tested by the gradient with respect to their spectra).
+"""
+
+import dataclasses
+import functools
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..estimate import SEARCH_LAMBDA, LampTable, cv_loss, log_ratio_features
+
+
+MIN_FWHM_NM = 20.0
+"""Narrowest band a filter maker is asked for (multispectral bands). [nm]"""
+
+MAX_OVERLAP = 0.25
+"""Largest allowed overlap `Σ min(r_i, r_j) / min(Σ r_i, Σ r_j)` between two
+multispectral bands (enforced by a penalty, reported per design). [1]"""
+
+OVERLAP_WEIGHT = 100.0
+"""Weight of the squared overlap excess in the loss. [1]"""
+
+
+@dataclasses.dataclass(frozen=True)
+class Resample:
+    """One outer fold of one lamp partition (indices into the lamp table)."""
+
+    partition: int
+    fold: int
+    train: np.ndarray
+    test: np.ndarray
+    inner: tuple
+
+
+def lamp_resamples(
+    classes, n_partitions: int, *, seed: int = 0, n_outer: int = 3, n_inner: int = 2
+) -> list[Resample]:
+    """`n_partitions` repeated lamp-grouped, class-stratified partitions into
+    `n_outer` folds (seed `seed + 101·p`), flattened to resamples."""
+    from ..folds import nested_lamp_splits
+
+    out = []
+    for p in range(int(n_partitions)):
+        for s in nested_lamp_splits(
+            classes, n_outer=n_outer, n_inner=n_inner, seed=seed + 101 * p
+        ):
+            out.append(Resample(p, s.outer, s.train, s.test, s.inner))
+    return out
+
+
+class BatchData(eqx.Module):
+    """Arrays shared by every resample and restart (see module docstring).
+
+    - `toa (N, w)`, `wavelength_nm (w,)`; `y`, `valid (N, 3)` truth (mired);
+    - `onehot (N, C)` level-2 class indicators;
+    - `train_w`, `val_w (R, I, N)` inner split weights of each resample;
+    - `spread (R, 3)` class-balanced SD of each metric over its training lamps;
+    - `fixed_response (f, w)` pan band or None; `noise_z (N, b)` or None.
+    """
+
+    toa: jax.Array
+    wavelength_nm: jax.Array
+    y: jax.Array
+    valid: jax.Array
+    onehot: jax.Array
+    train_w: jax.Array
+    val_w: jax.Array
+    spread: jax.Array
+    fixed_response: jax.Array | None
+    noise_z: jax.Array | None
+    sensor: object
+    shape_k: float = eqx.field(static=True, default=6.0)
+    lam: float = eqx.field(static=True, default=SEARCH_LAMBDA)
+
+
+def make_batch_data(
+    toa_lamp: np.ndarray,
+    wavelength_nm: np.ndarray,
+    table: LampTable,
+    resamples,
+    space,
+    *,
+    noise: bool = False,
+    noise_radiance: float | None = None,
+    seed: int = 0,
+    dtype=jnp.float64,
+) -> BatchData:
+    """`BatchData` over all lamps of `table` for `resamples` (the search of
+    resample r only sees its training lamps: every other scene has weight 0)."""
+    from ..sensor import SensorParams
+
+    toa = np.asarray(toa_lamp).reshape(-1, toa_lamp.shape[-1])
+    if noise_radiance is not None:
+        w = np.asarray(wavelength_nm)
+        band = (w >= 400) & (w <= 900)
+        toa = toa * (noise_radiance / toa[:, band].mean(axis=1))[:, None]
+    y, valid = table.scenario_truth()
+    cls = np.asarray(table.classes, dtype=object)
+    names = sorted(set(cls.tolist()))
+    onehot = (cls[table.lamp_of][:, None] == np.asarray(names, object)[None, :]).astype(
+        float
+    )
+    trs, vas, spreads = [], [], []
+    for r in resamples:
+        for tr, va in r.inner:
+            if set(np.asarray(tr).tolist()) & set(np.asarray(r.test).tolist()):
+                raise ValueError("an inner split uses an outer test lamp.")
+            if set(np.asarray(va).tolist()) & set(np.asarray(r.test).tolist()):
+                raise ValueError("an inner split uses an outer test lamp.")
+        tw, vw = table.split_weights(list(r.inner))
+        trs.append(tw)
+        vas.append(vw)
+        spreads.append(table.spread(r.train))
+    fixed = space.fixed_bands()
+    wl = jnp.asarray(wavelength_nm, dtype)
+    n_b = space.n_free + (fixed is not None)
+    z = None
+    sensor = None
+    if noise:
+        z = jnp.asarray(
+            np.random.default_rng(seed).standard_normal((toa.shape[0], n_b)), dtype
+        )
+        sensor = SensorParams()
+    return BatchData(
+        toa=jnp.asarray(toa, dtype),
+        wavelength_nm=wl,
+        y=jnp.asarray(y, dtype),
+        valid=jnp.asarray(valid),
+        onehot=jnp.asarray(onehot, dtype),
+        train_w=jnp.asarray(np.stack(trs), dtype),
+        val_w=jnp.asarray(np.stack(vas), dtype),
+        spread=jnp.asarray(np.stack(spreads), dtype),
+        fixed_response=None
+        if fixed is None
+        else jnp.asarray(fixed.response(jnp.asarray(wavelength_nm)), dtype),
+        noise_z=z,
+        sensor=sensor,
+        shape_k=space.shape_k,
+    )
+
+
+def _radiance(data: BatchData, response):
+    from ._problem import band_radiance
+
+    return band_radiance(
+        data.toa, data.wavelength_nm, response, data.noise_z, data.sensor
+    )
+
+
+def overlap_matrix(response) -> jax.Array:
+    """`(b, b)` overlaps `Σ min(r_i, r_j) / min(Σ r_i, Σ r_j)` (diagonal 0)."""
+    r = jnp.asarray(response)
+    inter = jnp.sum(jnp.minimum(r[:, None, :], r[None, :, :]), axis=-1)
+    area = jnp.sum(r, axis=-1)
+    den = jnp.minimum(area[:, None], area[None, :])
+    ok = den > 0
+    ov = jnp.where(ok, inter / jnp.where(ok, den, 1.0), 0.0)
+    return ov * (1.0 - jnp.eye(r.shape[0], dtype=r.dtype))
+
+
+def design_terms(data: BatchData, space, u, r):
+    """(est, cls, overlap penalty) of unit-box point `u` for resample index `r`."""
+    from ..sensor import slit_super_gaussian
+
+    centre, fwhm = space.physical(u)
+    k = jnp.full_like(centre, data.shape_k)
+    free = slit_super_gaussian(data.wavelength_nm, centre, fwhm, k)
+    resp = free
+    if data.fixed_response is not None:
+        resp = jnp.concatenate([free, data.fixed_response], axis=0)
+    x = log_ratio_features(_radiance(data, resp))
+    tw, vw = data.train_w[r], data.val_w[r]
+    est = (
+        cv_loss(
+            x,
+            data.y,
+            data.valid,
+            tw,
+            vw,
+            data.spread[r],
+            jnp.ones(3, x.dtype),
+            data.lam,
+        )
+        / 3.0
+    )
+    c = data.onehot.shape[1]
+    cls = cv_loss(
+        x,
+        data.onehot,
+        jnp.ones_like(data.onehot, bool),
+        tw,
+        vw,
+        jnp.ones(c, x.dtype),
+        jnp.ones(c, x.dtype),
+        data.lam,
+    ) / (1.0 - 1.0 / c)
+    ov = overlap_matrix(free)
+    pen = 0.5 * jnp.sum(jnp.maximum(ov - MAX_OVERLAP, 0.0) ** 2)
+    return est, cls, pen
+
+
+def design_loss(data, space, alpha, u, r):
+    est, cls, pen = design_terms(data, space, u, r)
+    return (1.0 - alpha) * est + alpha * cls + OVERLAP_WEIGHT * pen
+
+
+def batched_loss(space, alpha):
+    """Jitted `f(data, U (R, K, d)) -> (R, K)` losses (restarts of each resample)."""
+    return _batched_loss(space, float(alpha))
+
+
+@functools.lru_cache(maxsize=32)
+def _batched_loss(space, alpha):
+    def per(data, u, r):
+        return design_loss(data, space, alpha, u, r)
+
+    inner = jax.vmap(per, in_axes=(None, 0, None))  # restarts
+
+    def f(data, U):
+        rs = jnp.arange(U.shape[0])
+        return jax.vmap(inner, in_axes=(None, 0, 0))(data, U, rs)
+
+    return jax.jit(f)
+
+
+@functools.lru_cache(maxsize=32)
+def _adam_search(space, alpha, steps: int, lr: float):
+    def per(data, u, r):
+        return design_loss(data, space, alpha, u, r)
+
+    def total(zs, data):
+        U = jax.nn.sigmoid(zs)
+        rs = jnp.arange(U.shape[0])
+        f = jax.vmap(jax.vmap(per, in_axes=(None, 0, None)), in_axes=(None, 0, 0))(
+            data, U, rs
+        )
+        f = jnp.where(jnp.isfinite(f), f, 1e30)
+        return jnp.sum(f), f
+
+    grad = jax.grad(total, has_aux=True)
+    b1, b2, eps = 0.9, 0.999, 1e-8
+
+    def run(z0, data):
+        def step(carry, t):
+            z, m, v, best_f, best_z = carry
+            g, f = grad(z, data)
+            g = jnp.where(jnp.isfinite(g), g, 0.0)
+            better = f < best_f
+            best_f = jnp.where(better, f, best_f)
+            best_z = jnp.where(better[..., None], z, best_z)
+            m = b1 * m + (1 - b1) * g
+            v = b2 * v + (1 - b2) * g**2
+            mh = m / (1 - b1 ** (t + 1))
+            vh = v / (1 - b2 ** (t + 1))
+            z = z - lr * mh / (jnp.sqrt(vh) + eps)
+            z = jnp.clip(z, -8.0, 8.0)
+            return (z, m, v, best_f, best_z), jnp.min(f, axis=1)
+
+        zero = jnp.zeros_like(z0)
+        init = (z0, zero, zero, jnp.full(z0.shape[:2], jnp.inf, z0.dtype), z0)
+        (z, _, _, best_f, best_z), trace = jax.lax.scan(
+            step, init, jnp.arange(steps, dtype=z0.dtype)
+        )
+        _, f_last = total(z, data)
+        better = f_last < best_f
+        best_f = jnp.where(better, f_last, best_f)
+        best_z = jnp.where(better[..., None], z, best_z)
+        return jax.nn.sigmoid(best_z), best_f, trace
+
+    return jax.jit(run)
+
+
+def batched_search(
+    data: BatchData,
+    space,
+    *,
+    alpha: float = 0.0,
+    restarts: int = 8,
+    steps: int = 150,
+    lr: float = 0.08,
+    seed: int = 0,
+) -> dict:
+    """Search every resample of `data` with `restarts` seeded random starts.
+
+    Returns `{"u" (R, d) best unit-box point per resample, "loss" (R,),
+    "restart_losses" (R, K), "trace" (steps, R) best loss per step,
+    "n_evals"}` (value-and-gradient evaluations, all restarts and resamples).
+    """
+    n_r = data.train_w.shape[0]
+    rng = np.random.default_rng(seed)
+    u0 = rng.uniform(0.05, 0.95, size=(n_r, restarts, space.dim))
+    z0 = jnp.asarray(np.log(u0 / (1 - u0)), data.toa.dtype)
+    run = _adam_search(space, float(alpha), int(steps), float(lr))
+    U, f, trace = run(z0, data)
+    U, f = np.asarray(U, float), np.asarray(f, float)
+    best = np.argmin(f, axis=1)
+    return {
+        "u": U[np.arange(n_r), best],
+        "loss": f[np.arange(n_r), best],
+        "restart_losses": f,
+        "trace": np.asarray(trace, float),
+        "n_evals": int(n_r * restarts * (steps + 1)),
+    }
+
+
+def sorted_design(space, u) -> tuple[np.ndarray, np.ndarray]:
+    """(centre, fwhm) of the free bands of unit point `u`, sorted by centre."""
+    c, f = (np.asarray(a, float) for a in space.physical(jnp.asarray(u)))
+    o = np.argsort(c)
+    return c[o], f[o]
+
+
+def medoid(designs) -> int:
+    """Index of the medoid of designs `[(centre (b,), fwhm (b,)), ...]` (bands
+    sorted by centre): the design with the least summed Euclidean distance
+    in (centre, FWHM) [nm] to all others."""
+    v = np.stack([np.concatenate([c, f]) for c, f in designs])
+    d = np.sqrt(((v[:, None, :] - v[None, :, :]) ** 2).sum(-1))
+    return int(np.argmin(d.sum(1)))
+
+
+REGIONS_NM = (
+    ("violet-blue", 380.0, 490.0),
+    ("green", 490.0, 570.0),
+    ("yellow-orange", 570.0, 620.0),
+    ("red", 620.0, 700.0),
+    ("far-red", 700.0, 780.0),
+    ("near-infrared", 780.0, 1000.0),
+)
+"""Spectral regions for the frequency with which a band centre falls in them."""
+
+
+def region_frequency(designs) -> dict:
+    """Fraction of designs with at least one band centred in each region."""
+    out = {}
+    for name, lo, hi in REGIONS_NM:
+        hit = [bool(np.any((c >= lo) & (c < hi))) for c, _ in designs]
+        out[name] = float(np.mean(hit)) if hit else 0.0
+    return out

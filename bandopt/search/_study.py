@@ -1,0 +1,261 @@
+"""Stability study tasks: batched search over lamp resamples, outer-fold scoring.
+
+One task = one band count `n_bands` and one objective weight `alpha` (see
+`_stability`), searched on every resample of `partitions` lamp partitions
+in one compiled function; each resample's design is then judged on its own
+outer test lamps with the pluggable *scorer* (`SCORERS`, `DEFAULT_SCORER`):
+estimation error per lamp, level-2 macro F1 of the KNN classifier
+(`bandopt.classify`, k chosen on the inner folds) and the design's SNR.
+Reference-sensor tasks score a fixed band set on the same resamples.
+"""
+
+import functools
+import time
+from collections.abc import Callable
+
+import jax.numpy as jnp
+import numpy as np
+
+
+DEFAULT_SCORER = "ridge"
+"""Estimator that judges designs on the outer folds (the same for reference
+sensors). Switch here (one line) to `"inversion"` once it is usable."""
+
+
+def _ridge_fit(ctx, bands, rad, train, inner) -> Callable:
+    """Ridge on centred log ratios (degree and strength by inner CV); returns
+    `predict(radiance, bands) -> (N, 3)` [lm/W, 1, K]."""
+    from ..estimate import fit_estimator
+
+    est = fit_estimator(rad, ctx.table, train, inner)
+    return lambda r, b=None: np.asarray(est.predict(jnp.asarray(r)))
+
+
+def _inversion_fit(ctx, bands, rad, train, inner) -> Callable:
+    """Physics-based inversion (`bandopt.inversion`, helper D's estimator)."""
+    from .. import inversion
+
+    fit = inversion.fit(bands, rad, ctx.table, train, inner)  # pyright: ignore
+    return lambda r, b=None: np.asarray(fit.predict(r, b if b is not None else bands))
+
+
+SCORERS: dict[str, Callable] = {"ridge": _ridge_fit, "inversion": _inversion_fit}
+
+SCORER_NOTES = {
+    "ridge": "ridge regression on centred log band ratios (bandopt.estimate."
+    "fit_estimator: feature degree 1-2 and strength by inner CV), refitted on "
+    "each outer training set",
+    "inversion": "physics-based inversion (bandopt.inversion)",
+}
+
+
+def get_scorer(name: str) -> Callable:
+    if name not in SCORERS:
+        raise ValueError(f"Unknown scorer {name!r}; expected one of {list(SCORERS)}.")
+    return SCORERS[name]
+
+
+def f1_outer(ctx, rad, train, inner, test) -> tuple[np.ndarray, np.ndarray]:
+    """KNN (`bandopt.classify`) level-2 predictions on the test lamps' scenes:
+    returns (true labels, predicted labels) as integers."""
+    from ..classify import choose_k, features, neighbour_labels, vote_proba
+
+    x = np.asarray(features(jnp.asarray(rad)))
+    names = sorted(set(np.asarray(ctx.table.classes, object).tolist()))
+    lab = np.asarray([names.index(c) for c in ctx.table.classes])[ctx.table.lamp_of]
+    lamp = ctx.table.lamp_of
+    rows = np.isfinite(x).all(1)
+    tr_rows = rows & np.isin(lamp, train)
+    k, _ = choose_k(x, lab, lamp, inner, len(names), rows=tr_rows)
+    te = rows & np.isin(lamp, test)
+    nbr = neighbour_labels(x[tr_rows], lab[tr_rows], x[te], k)
+    pred = np.argmax(vote_proba(nbr, k, len(names)), axis=1)
+    return lab[te], pred
+
+
+def design_snr(ctx, bands) -> float:
+    """Median over scenes (signal > 0 in every band) of the weakest band's
+    shot-noise SNR at the context's signal level (thesis Table 2.3 sensor)."""
+    from ..sensor import SensorParams, noise_electrons
+    from ..sensor._photon import _photon_weights
+
+    wl = jnp.asarray(ctx.wavelength_nm)
+    pw = np.asarray(_photon_weights(bands.response(wl), wl, SensorParams(), None))
+    toa = ctx.toa.reshape(-1, ctx.toa.shape[-1])
+    if ctx.noise_radiance is not None:
+        from ._task import _scale_to
+
+        toa = _scale_to(toa, ctx.wavelength_nm, ctx.noise_radiance)
+    e = toa @ pw.T
+    ok = (e > 0).all(axis=1)
+    snr = e[ok] / np.asarray(noise_electrons(jnp.asarray(e[ok]), SensorParams()))
+    return float(np.median(snr.min(axis=1))) if ok.any() else 0.0
+
+
+def score_design(ctx, bands, resamples, *, scorer: str, seed: int, which=None):
+    """Outer-fold scores of one band set on `resamples` (indices `which`, all
+    by default). Returns one dict per resample: test lamp indices and
+    per-lamp absolute errors `(k, 3)`, true/predicted class labels."""
+    rad = ctx.radiance(bands, seed=seed)
+    fit = get_scorer(scorer)
+    out = []
+    for i in range(len(resamples)) if which is None else which:
+        r = resamples[i]
+        predict = fit(ctx, bands, rad, r.train, list(r.inner))
+        from ..estimate import lamp_abs_errors
+
+        err = lamp_abs_errors(predict(rad, bands), ctx.table, r.test)
+        yt, yp = f1_outer(ctx, rad, r.train, list(r.inner), r.test)
+        out.append(
+            {
+                "resample": int(i),
+                "partition": int(r.partition),
+                "fold": int(r.fold),
+                "lamp_index": np.asarray(r.test).tolist(),
+                "lamp_errors": err.tolist(),
+                "labels_true": yt.tolist(),
+                "labels_pred": yp.tolist(),
+            }
+        )
+    return out
+
+
+def _space(task, ctx):
+    from ._problem import Space
+
+    return Space(
+        int(task["n_bands"]),
+        pan=task["pan"],
+        min_fwhm_nm=float(task["min_fwhm_nm"]),
+        max_fwhm_nm=float(task["max_fwhm_nm"]),
+        lower_nm=float(np.min(ctx.wavelength_nm)),
+        upper_nm=float(np.max(ctx.wavelength_nm)),
+    )
+
+
+@functools.lru_cache(maxsize=4)
+def _resamples(preset, noise, atmospheres, partitions, seed):
+    from ._stability import lamp_resamples
+    from ._task import get_context
+
+    ctx = get_context(preset, noise, 0, atmospheres)
+    return ctx, tuple(lamp_resamples(ctx.table.classes, partitions, seed=seed))
+
+
+STUDY_TASK = {
+    "kind": "stability",
+    "preset": "search",
+    "noise": "P4",
+    "atmospheres": "auto",
+    "partitions": 4,
+    "seed": 0,
+    "n_bands": 3,
+    "pan": "fixed",
+    "alpha": 0.0,
+    "restarts": 12,
+    "steps": 200,
+    "lr": 0.08,
+    "min_fwhm_nm": 20.0,
+    "max_fwhm_nm": 200.0,
+    "scorer": DEFAULT_SCORER,
+    "target": "all",
+}
+
+
+def make_study_task(**kw) -> dict:
+    from ._task import atmospheres_available
+
+    unknown = set(kw) - set(STUDY_TASK) - {"sensor"}
+    if unknown:
+        raise ValueError(f"Unknown study task fields {sorted(unknown)}.")
+    t = {**STUDY_TASK, **kw}
+    if t["atmospheres"] == "auto":
+        t["atmospheres"] = "6s" if atmospheres_available() else "none"
+    return t
+
+
+def run_study_task(task: dict) -> dict:
+    """Run one stability task (search) or reference task (`sensor` set)."""
+    from ..sensor.reference import reference_sensor
+    from ._stability import batched_search, make_batch_data, sorted_design
+
+    t0 = time.perf_counter()
+    ctx, res = _resamples(
+        task["preset"],
+        task["noise"],
+        task["atmospheres"],
+        task["partitions"],
+        task["seed"],
+    )
+    if task.get("sensor"):
+        bands = reference_sensor(task["sensor"])
+        scores = score_design(ctx, bands, res, scorer=task["scorer"], seed=task["seed"])
+        return {
+            "task": task,
+            "bands": {
+                "name": bands.name,
+                "centre_nm": np.asarray(bands.centre_nm, float).tolist(),
+                "fwhm_nm": np.asarray(bands.fwhm_nm, float).tolist(),
+                "names": list(bands.names),
+            },
+            "n_bands_total": int(len(bands.names)),
+            "snr": design_snr(ctx, bands),
+            "scores": scores,
+            "context": ctx.config,
+            "wall_s": time.perf_counter() - t0,
+        }
+    space = _space(task, ctx)
+    data = make_batch_data(
+        ctx.toa,
+        ctx.wavelength_nm,
+        ctx.table,
+        res,
+        space,
+        noise=ctx.noise,
+        noise_radiance=ctx.noise_radiance,
+        seed=task["seed"],
+    )
+    t1 = time.perf_counter()
+    s = batched_search(
+        data,
+        space,
+        alpha=task["alpha"],
+        restarts=task["restarts"],
+        steps=task["steps"],
+        lr=task["lr"],
+        seed=task["seed"],
+    )
+    search_s = time.perf_counter() - t1
+    from ._stability import design_terms, overlap_matrix
+
+    designs, scores, snrs, terms, overlaps = [], [], [], [], []
+    for i, u in enumerate(s["u"]):
+        c, f = sorted_design(space, u)
+        bands = space.band_set(c, f, name=f"stability-n{space.n_bands}-r{i}")
+        designs.append({"centre_nm": c.tolist(), "fwhm_nm": f.tolist()})
+        e, cl, _ = design_terms(data, space, jnp.asarray(u), i)
+        terms.append({"est": float(e), "cls": float(cl)})
+        free = np.asarray(bands.response(jnp.asarray(ctx.wavelength_nm)))[
+            : space.n_free
+        ]
+        overlaps.append(float(np.max(np.asarray(overlap_matrix(jnp.asarray(free))))))
+        snrs.append(design_snr(ctx, bands))
+        scores += score_design(
+            ctx, bands, res, scorer=task["scorer"], seed=task["seed"], which=[i]
+        )
+    return {
+        "task": task,
+        "space": space.to_dict(),
+        "designs": designs,
+        "inner_loss": s["loss"].tolist(),
+        "inner_terms": terms,
+        "restart_losses": s["restart_losses"].tolist(),
+        "max_overlap": overlaps,
+        "snr": snrs,
+        "scores": scores,
+        "n_evals": s["n_evals"],
+        "search_s": search_s,
+        "evals_per_s": s["n_evals"] / search_s,
+        "context": ctx.config,
+        "wall_s": time.perf_counter() - t0,
+    }
