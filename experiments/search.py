@@ -1,7 +1,7 @@
 """Band search for LER, G and CCT, and the comparison with existing sensors.
 
 Run:
-    python -m experiments.search run              # the main job (`make run`)
+    python -m experiments.search run              # the stability study (`make run`)
     python -m experiments.search ler|g|cct|all    # one target, n = 1..6 + pan
     python -m experiments.search sweep            # every target, n = 1..6 + pan
     python -m experiments.search compare          # tables, figures, recommendation
@@ -9,12 +9,23 @@ Run:
 Options: --out DIR (default results/search), --workers K, --scheduler ADDRESS
 (Dask), --max-evals N, --seed S, --preset NAME, --bands 1,2,...
 
-Every search is nested, lamp-grouped and class-stratified (3 outer x 2 inner
-folds): bands are searched on the outer training lamps (loss = inner-CV ridge
-error), the estimator refitted there (ridge strength and feature degree by
-inner CV) and scored on the outer test lamps; a fourth search on all lamps
-("final") gives the recommended bands. Finished searches are kept as JSON in
-<out>/tasks/ and skipped on a rerun.
+`run` is the stability study (issue 13, `study`): band counts 1..6 (+ pan)
+and objective weights searched on 4 lamp partitions x 3 outer folds at once
+(`bandopt.search._stability`), band count by the one-SD rule, a Pareto front
+of estimation error, level-2 F1 and SNR, the recommended design with
+per-band intervals, its tolerance analysis and the comparison with every
+reference sensor; options --partitions, --steps, --scorer, --force (recompute
+cached tasks; otherwise a rerun says which results of the identical
+configuration it reuses).
+
+The other commands are the earlier single-split study (outputs named
+`single_split_*`). Every search there is nested, lamp-grouped and
+class-stratified (3 outer x 2 inner folds): bands are searched on the outer
+training lamps (loss = inner-CV ridge error), the estimator refitted there
+(ridge strength and feature degree by inner CV) and scored on the outer test
+lamps; a fourth search on all lamps ("final") gives that study's bands.
+Finished tasks are kept as JSON in <out>/tasks/ (a cache, not committed) and
+skipped on a rerun.
 """
 
 import argparse
@@ -207,8 +218,9 @@ def plot_v_band(vb, path):
 
 
 def compare(args) -> dict:
-    """Reference sensors and our sets on the same folds: tables, figures,
-    README section and the recommendation."""
+    """The earlier single-split study (one partition, nlopt per fold): its
+    tables and figures under `single_split_*` names. The recommendation,
+    `compare.json` and the README section come from `run` (stability study)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -216,7 +228,6 @@ def compare(args) -> dict:
 
     from bandopt.estimate import METRICS, UNITS
     from bandopt.provenance import write_manifest
-    from bandopt.results import update_recommendation
     from bandopt.search import get_context, run_sweep
     from bandopt.search._report import mae_ci, paired_reduction, plot_bands_over_lamps
     from bandopt.search._sweep import print_progress
@@ -320,10 +331,10 @@ def compare(args) -> dict:
         "MSEs each divided by the metric's class-balanced variance over the search "
         "lamps ('spread' = its square root, LER [lm/W], G [1], CCT [mired]).",
     }
-    (out / "compare.json").write_text(
+    (out / "single_split_compare.json").write_text(
         json.dumps(summary, indent=2, default=float) + "\n"
     )
-    with (out / "compare.csv").open("w", newline="") as fh:
+    with (out / "single_split_compare.csv").open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(
             [
@@ -408,7 +419,7 @@ def compare(args) -> dict:
     axes[0].legend(fontsize=7)
     fig.suptitle("Outer-fold test MAE (class-balanced, 95 % lamp bootstrap)")
     fig.tight_layout()
-    fig.savefig(out / "error_vs_bands.png", dpi=120)
+    fig.savefig(out / "single_split_error_vs_bands.png", dpi=120)
     plt.close(fig)
     # recommended bands: final joint search at pan + 5 (or the largest available)
     rec_name = (
@@ -424,28 +435,18 @@ def compare(args) -> dict:
             upper_nm=rec["range_nm"][1],
             min_fwhm_nm=1.0,
         )
-        bs.to_json(out / "recommended_bands.json")
+        bs.to_json(out / "single_split_bands.json")
         plot_bands_over_lamps(
             bs,
-            out / "bands_over_lamps.png",
+            out / "single_split_bands_over_lamps.png",
             title=f"Recommended {rec_name} bands over mean lamp-class spectra",
         )
-        update_recommendation(
-            "spectral",
-            {
-                "bands": rec,
-                "set": rec_name,
-                "test_mae": {m: ours[rec_name][m] for m in METRICS},
-                "estimator": "ridge on centred log band ratios "
-                "(degree and strength by inner CV)",
-                "source": str(out / "compare.json"),
-            },
-        )
+        # the recommendation comes from the stability study (`run`) only
     vb = v_band_experiment(ctx, seed=args.seed)
     (out / "v_band.json").write_text(json.dumps(vb, indent=2, default=float) + "\n")
     plot_v_band(vb, out / "v_band.png")
     write_manifest(
-        out,
+        out / "single_split",
         seed=args.seed,
         config={
             "preset": args.preset,
@@ -456,7 +457,7 @@ def compare(args) -> dict:
     )
     text = table_text(summary)
     print(text)
-    write_readme_section(summary, text, out)
+    # results/README.md carries the stability study (`run`), not this one
     return summary
 
 
@@ -837,7 +838,7 @@ def plot_stability(designs, stab, path, title):
         ax.axvspan(lo, hi, color=f"C{j}", alpha=0.12)
         ax.plot([c - f / 2, c + f / 2], [len(designs) + 0.8] * 2, color=f"C{j}", lw=6)
     ax.axhline(m, color="k", ls=":", lw=0.8)
-    ax.set_yticks(list(range(len(designs))) + [len(designs) + 0.8])
+    ax.set_yticks([*range(len(designs)), len(designs) + 0.8])
     ax.set_yticklabels(
         [f"p{d['partition']} f{d['fold']}" for d in designs] + ["recommended"],
         fontsize=7,
@@ -1217,7 +1218,8 @@ def write_study_readme(s, stab, tol, rec_key, wall, out: Path) -> None:
                 f"{' (Pareto)' if v.get('pareto') else ''}"
             )
     rlines = [
-        "sensor | bands | LER | G | CCT | F1 | reduction LER / G / CCT [95 % CI] (recommended) | at equal band count"
+        "sensor | bands | LER | G | CCT | F1 | reduction LER / G / CCT "
+        "[95 % CI] (recommended) | at equal band count"
     ]
     for k, v in s["references"].items():
         red = s["reductions"][k]["recommended"]
@@ -1225,17 +1227,20 @@ def write_study_readme(s, stab, tol, rec_key, wall, out: Path) -> None:
 
         def fmt(r):
             return " / ".join(
-                f"{r[m]['reduction']:.0%} [{r[m]['ci95'][0]:.0%}, {r[m]['ci95'][1]:.0%}]"
+                f"{r[m]['reduction']:.0%} "
+                f"[{r[m]['ci95'][0]:.0%}, {r[m]['ci95'][1]:.0%}]"
                 for m in ("LER", "G", "CCT")
             )
 
         rlines.append(
-            f"{k} | {v['n_bands']} | {v['mae_mean']['LER']:.1f} | {v['mae_mean']['G']:.3f} | "
+            f"{k} | {v['n_bands']} | {v['mae_mean']['LER']:.1f} | "
+            f"{v['mae_mean']['G']:.3f} | "
             f"{v['mae_mean']['CCT']:.0f} | {v['f1_mean']:.2f} | {fmt(red)} | "
             f"{fmt(eq) + ' (' + eq['ours'] + ')' if eq else 'n/a'}"
         )
     blines = [
-        f"{n}: {c:.0f} nm [{ci[0]:.0f}, {ci[1]:.0f}], FWHM {f:.0f} nm [{fi[0]:.0f}, {fi[1]:.0f}]"
+        f"{n}: {c:.0f} nm [{ci[0]:.0f}, {ci[1]:.0f}], "
+        f"FWHM {f:.0f} nm [{fi[0]:.0f}, {fi[1]:.0f}]"
         for n, c, ci, f, fi in zip(
             [f"B{i + 1}" for i in range(len(stab["centre_nm"]))],
             stab["centre_nm"],
@@ -1250,6 +1255,7 @@ def write_study_readme(s, stab, tol, rec_key, wall, out: Path) -> None:
         f"{v['fwhm_factor_interval']}"
         for b, v in tol["per_band"].items()
     ]
+    freq = ", ".join(f"{k} {v:.0%}" for k, v in stab["region_frequency"].items())
     body = f"""{start}
 ## Spectral band search: stability study (`{out}`, `make run`)
 
@@ -1278,10 +1284,12 @@ Recommended: **{rec_key}**, design = {stab["rule"]}:
 {chr(10).join(blines)}
 ```
 
-Region frequency over resamples: {", ".join(f"{k} {v:.0%}" for k, v in stab["region_frequency"].items())}.
+Region frequency over resamples: {freq}.
 
-Tolerance ({tol["rule"]}): {"; ".join(tl)}; leakage interval {tol["leakage_interval"]}
-(1 % met: {tol["meets_leakage_1pct"]}); angle of incidence {tol["aoi_interval_deg"]} deg.
+Tolerance ({tol["rule"]}): {"; ".join(tl)};
+leakage interval {tol["leakage_interval"]}
+(1 % met: {tol["meets_leakage_1pct"]});
+angle of incidence {tol["aoi_interval_deg"]} deg.
 
 Comparison (same estimator, same partitions; reductions with 95 % paired CIs):
 
@@ -1312,7 +1320,12 @@ def main(argv=None) -> int:
         choices=["run", "ler", "g", "cct", "all", "sweep", "compare", "budget"],
     )
     p.add_argument("--out", default="results/search")
-    p.add_argument("--workers", type=int, default=2)
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=1,
+        help="spawned worker processes (default 1: this process; XLA uses both cores)",
+    )
     p.add_argument("--scheduler", default=None, metavar="ADDRESS")
     p.add_argument("--max-evals", type=int, default=None)
     p.add_argument("--seed", type=int, default=0)

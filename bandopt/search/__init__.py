@@ -6,7 +6,13 @@
 - `fit_local` (`_local`): optimistix BFGS / Levenberg-Marquardt on `BandSet` leaves;
 - `grid_search`, `grid_pairs` (`_grid`): exhaustive 10 nm baseline;
 - `make_task`, `run_task`, `get_context`, `evaluate_bands` (`_task`): one search;
-- `run_sweep` (`_sweep`): parallel (spawned processes or Dask), resumable sweeps.
+- `run_sweep` (`_sweep`): parallel (spawned processes or Dask), resumable sweeps;
+- `lamp_resamples`, `make_batch_data`, `batched_search` (`_stability`): all lamp
+  resamples and restarts of one band count in one jitted, vmapped Adam search,
+  with the joint estimation/classification loss and the band-overlap penalty;
+- `make_study_task`, `run_study_task`, `SCORERS` (`_study`): stability-study
+  tasks and the pluggable outer-fold estimator; `_analysis`: the stated rules
+  (band count, Pareto knee, medoid design, tolerance intervals).
 """
 
 from ._global import (
@@ -27,6 +33,17 @@ from ._problem import (
     jitted_losses as jitted_losses,
     make_problem as make_problem,
     scenario_spectra as scenario_spectra,
+)
+from ._stability import (
+    batched_search as batched_search,
+    lamp_resamples as lamp_resamples,
+    make_batch_data as make_batch_data,
+)
+from ._study import (
+    DEFAULT_SCORER as DEFAULT_SCORER,
+    SCORERS as SCORERS,
+    make_study_task as make_study_task,
+    run_study_task as run_study_task,
 )
 from ._sweep import load_results as load_results, run_sweep as run_sweep
 from ._task import (

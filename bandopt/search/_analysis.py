@@ -18,6 +18,8 @@ Stated rules (also written into every output):
   bands over resamples.
 """
 
+import itertools
+
 import numpy as np
 
 from ..estimate import METRICS
@@ -123,7 +125,7 @@ def band_count_choice(per_n: dict) -> dict:
     best = min(ns, key=lambda n: mean[n])
     chosen = min(n for n in ns if mean[n] <= mean[best] + sd[best])
     paired = {}
-    for a, b in zip(ns[:-1], ns[1:], strict=True):
+    for a, b in itertools.pairwise(ns):
         d = np.asarray(per_n[b]) - np.asarray(per_n[a])
         paired[f"{b}-{a}"] = {
             "mean": float(d.mean()),

@@ -35,7 +35,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..estimate import SEARCH_LAMBDA, LampTable, cv_loss, log_ratio_features
+from ..estimate import (
+    SEARCH_LAMBDA,
+    LampTable,
+    cv_loss,
+    fit_ridge,
+    log_ratio_features,
+)
 
 
 MIN_FWHM_NM = 20.0
@@ -212,19 +218,26 @@ def design_terms(data: BatchData, space, u, r):
         / 3.0
     )
     c = data.onehot.shape[1]
-    cls = cv_loss(
-        x,
-        data.onehot,
-        jnp.ones_like(data.onehot, bool),
-        tw,
-        vw,
-        jnp.ones(c, x.dtype),
-        jnp.ones(c, x.dtype),
-        data.lam,
-    ) / (1.0 - 1.0 / c)
+    cls = class_cv_loss(x, data.onehot, tw, vw, data.lam) / (1.0 - 1.0 / c)
     ov = overlap_matrix(free)
     pen = 0.5 * jnp.sum(jnp.maximum(ov - MAX_OVERLAP, 0.0) ** 2)
     return est, cls, pen
+
+
+def class_cv_loss(x, onehot, train_w, val_w, lam):
+    """Inner-CV class-balanced MSE of a ridge fit (`fit_ridge`) to each one-hot
+    class column, summed over columns and averaged over splits (the same
+    arithmetic as `cv_loss` with unit spread, for any number of columns)."""
+
+    def one(t, v, ym):
+        fit = fit_ridge(x, ym, t, lam)
+        sv = jnp.sum(v)
+        vn = v / jnp.where(sv > 0, sv, 1.0)
+        return jnp.sum(vn * (fit.predict(x) - ym) ** 2)
+
+    per_col = jax.vmap(one, in_axes=(None, None, 1))
+    per_split = jax.vmap(per_col, in_axes=(0, 0, None))(train_w, val_w, onehot)
+    return jnp.sum(per_split) / train_w.shape[0]
 
 
 def design_loss(data, space, alpha, u, r):

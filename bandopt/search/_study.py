@@ -198,7 +198,7 @@ def run_study_task(task: dict) -> dict:
                 "fwhm_nm": np.asarray(bands.fwhm_nm, float).tolist(),
                 "names": list(bands.names),
             },
-            "n_bands_total": int(len(bands.names)),
+            "n_bands_total": len(bands.names),
             "snr": design_snr(ctx, bands),
             "scores": scores,
             "context": ctx.config,

@@ -1,0 +1,296 @@
+"""Stability study: the batched loss equals the single-split loss, test lamps
+never reach the search, float32 agreement, stated rules (band count, Pareto
+knee, medoid), tolerance perturbations, resumable and Dask-run study tasks."""
+
+import json
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from bandopt.estimate import LampTable
+from bandopt.search import Space, make_problem
+from bandopt.search._analysis import (
+    AOI_N_EFF,
+    band_count_choice,
+    knee,
+    pareto_mask,
+    perturbed_bands,
+)
+from bandopt.search._stability import (
+    batched_loss,
+    batched_search,
+    design_terms,
+    lamp_resamples,
+    make_batch_data,
+    medoid,
+    overlap_matrix,
+)
+from bandopt.sensor import BandSet, slit_super_gaussian
+
+
+@pytest.fixture(scope="module")
+def synth():
+    """Smooth random spectra (5 nm grid), 30 lamps of 3 classes, 2 scenes each;
+    truth depends on band ratios so the loss has structure."""
+    rng = np.random.default_rng(3)
+    wl = np.arange(380.0, 901.0, 5.0)
+    n_lamps, q = 30, 2
+    basis = np.exp(
+        -0.5 * ((wl[None, :] - np.linspace(380, 900, 8)[:, None]) / 60.0) ** 2
+    )
+    coef = rng.uniform(0.05, 1.0, size=(n_lamps, 8))
+    toa = np.stack([coef @ basis, 2.0 * (coef @ basis)], 1)  # (l, q, w)
+    truth = np.column_stack(
+        [
+            100 + 40 * np.log(coef[:, 3] / coef[:, 6]),
+            0.5 + 0.2 * coef[:, 1],
+            2500 + 2000 * coef[:, 2],
+        ]
+    )
+    classes = np.array(["a", "b", "c"] * (n_lamps // 3), dtype=object)
+    table = LampTable(
+        np.repeat(np.arange(n_lamps), q), classes, truth, np.ones_like(truth, bool)
+    )
+    res = lamp_resamples(classes, 2, seed=0)
+    return {"wl": wl, "toa": toa, "table": table, "res": res}
+
+
+def test_resamples_are_grouped_and_partition_the_lamps(synth):
+    res = synth["res"]
+    assert len(res) == 6
+    for p in (0, 1):
+        tests = np.concatenate([r.test for r in res if r.partition == p])
+        assert np.array_equal(np.sort(tests), np.arange(30))
+    for r in res:
+        assert not set(r.train) & set(r.test)
+        for tr, va in r.inner:
+            assert not (set(tr) | set(va)) & set(r.test)
+    # two partitions differ
+    a = [tuple(r.test) for r in res if r.partition == 0]
+    b = [tuple(r.test) for r in res if r.partition == 1]
+    assert a != b
+
+
+def test_batched_estimation_term_equals_single_split_loss(synth):
+    space = Space(2, min_fwhm_nm=20.0)
+    data = make_batch_data(
+        synth["toa"], synth["wl"], synth["table"], synth["res"], space
+    )
+    u = jnp.asarray(np.random.default_rng(0).uniform(0.1, 0.9, space.dim))
+    for i in (0, 4):
+        r = synth["res"][i]
+        prob = make_problem(
+            synth["toa"],
+            synth["wl"],
+            synth["table"],
+            r.train,
+            list(r.inner),
+            target="all",
+            space=space,
+        )
+        est, _, _ = design_terms(data, space, u, i)
+        c, f = space.physical(u)
+        np.testing.assert_allclose(3 * float(est), float(prob.loss(c, f)), rtol=1e-10)
+
+
+def test_outer_test_lamps_do_not_influence_the_loss(synth):
+    space = Space(2, min_fwhm_nm=20.0)
+    data = make_batch_data(
+        synth["toa"], synth["wl"], synth["table"], synth["res"], space
+    )
+    u = jnp.asarray(np.full(space.dim, 0.4))
+    r = 1
+    test = synth["res"][r].test
+    rows = np.isin(synth["table"].lamp_of, test)
+
+    def f(toa):
+        d = eqx.tree_at(lambda x: x.toa, data, toa)
+        e, c, _ = design_terms(d, space, u, r)
+        return e + c
+
+    g = np.asarray(jax.grad(f)(data.toa))
+    assert np.all(g[rows] == 0.0)
+    assert np.any(g[~rows] != 0.0)
+
+
+def test_class_term_equals_cv_loss_arithmetic(synth):
+    """With three classes the one-hot matrix has the (n, 3) shape cv_loss takes."""
+    from bandopt.estimate import cv_loss
+    from bandopt.search._stability import class_cv_loss
+
+    space = Space(2, min_fwhm_nm=20.0)
+    data = make_batch_data(
+        synth["toa"], synth["wl"], synth["table"], synth["res"], space
+    )
+    x = jnp.asarray(np.random.default_rng(2).normal(size=(data.toa.shape[0], 3)))
+    tw, vw = data.train_w[0], data.val_w[0]
+    one = jnp.ones(3)
+    want = cv_loss(x, data.onehot, data.onehot > -1, tw, vw, one, one, 1e-3)
+    np.testing.assert_allclose(
+        float(class_cv_loss(x, data.onehot, tw, vw, 1e-3)), float(want), rtol=1e-12
+    )
+
+
+def test_float32_loss_agrees_with_float64(synth):
+    space = Space(3, min_fwhm_nm=20.0)
+    kw = dict(noise=False)
+    d64 = make_batch_data(
+        synth["toa"], synth["wl"], synth["table"], synth["res"], space, **kw
+    )
+    d32 = make_batch_data(
+        synth["toa"],
+        synth["wl"],
+        synth["table"],
+        synth["res"],
+        space,
+        dtype=jnp.float32,
+        **kw,
+    )
+    U = np.random.default_rng(1).uniform(0.05, 0.95, (len(synth["res"]), 4, space.dim))
+    f = batched_loss(space, 0.5)
+    a = np.asarray(f(d64, jnp.asarray(U)))
+    b = np.asarray(f(d32, jnp.asarray(U, jnp.float32)), float)
+    assert np.max(np.abs(a - b) / a) < 1e-3
+
+
+def test_batched_search_improves_and_is_reproducible(synth):
+    space = Space(1, min_fwhm_nm=20.0)
+    data = make_batch_data(
+        synth["toa"], synth["wl"], synth["table"], synth["res"], space
+    )
+    a = batched_search(data, space, restarts=3, steps=30, seed=5)
+    b = batched_search(data, space, restarts=3, steps=30, seed=5)
+    np.testing.assert_array_equal(a["u"], b["u"])
+    assert np.all(a["trace"][-1] <= a["trace"][0])
+    assert np.all(a["trace"][-1] < a["trace"][0]) or np.all(a["loss"] < 1e-6)
+    # the best restart's loss is what the loss function gives at its point
+    U = jnp.asarray(a["u"][:, None, :])
+    np.testing.assert_allclose(
+        np.asarray(batched_loss(space, 0.0)(data, U))[:, 0], a["loss"], rtol=1e-8
+    )
+
+
+def test_overlap_matrix():
+    wl = jnp.arange(380.0, 901.0)
+    r = slit_super_gaussian(
+        wl,
+        jnp.array([500.0, 500.0, 800.0]),
+        jnp.array([40.0, 40.0, 40.0]),
+        jnp.array([6.0] * 3),
+    )
+    ov = np.asarray(overlap_matrix(r))
+    np.testing.assert_allclose(ov[0, 1], 1.0, rtol=1e-9)
+    assert ov[0, 2] < 1e-6 and ov[0, 0] == 0.0
+
+
+def test_band_count_rule_and_paired_difference():
+    per_n = {
+        1: [0.60, 0.62, 0.61, 0.63],
+        2: [0.45, 0.47, 0.46, 0.44],
+        3: [0.40, 0.43, 0.41, 0.42],
+        4: [0.41, 0.40, 0.405, 0.42],
+    }
+    ch = band_count_choice(per_n)
+    assert ch["best_n"] == 4  # mean 0.40875 < 0.415
+    assert ch["chosen_n"] == 3  # 0.415 within one SD (0.0085) of 0.40875
+    d = ch["paired_difference_to_next_n"]["2-1"]
+    np.testing.assert_allclose(d["mean"], -0.16, atol=1e-12)
+    assert d["partitions_better"] == 4
+
+
+def test_pareto_front_and_knee():
+    pts = np.array([[0.0, 1.0], [1.0, 0.0], [0.4, 0.4], [0.5, 0.5], [0.9, 0.9]])
+    m = pareto_mask(pts)
+    assert m.tolist() == [True, True, True, False, False]
+    assert knee(pts, m) == 2
+
+
+def test_medoid_is_the_central_design():
+    centres = (450.0, 500.0, 510.0, 520.0, 700.0)
+    designs = [(np.array([c]), np.array([40.0])) for c in centres]
+    assert medoid(designs) == 2
+
+
+def test_perturbed_bands_aoi_and_leakage():
+    b = BandSet.from_physical([500.0, 700.0], [40.0, 40.0])
+    p = perturbed_bands(b, aoi_deg=10.0)
+    want = 500.0 * np.sqrt(1 - (np.sin(np.radians(10.0)) / AOI_N_EFF) ** 2)
+    np.testing.assert_allclose(float(p.centre_nm[0]), want, rtol=1e-9)
+    assert float(p.centre_nm[0]) < 500.0  # blue shift
+    wl = jnp.arange(380.0, 901.0)
+    q = np.asarray(perturbed_bands(b, leakage=0.01).response(wl))
+    assert abs(q[0, 0] - 0.01) < 1e-6 and abs(q[0].max() - 1.0) < 1e-6
+
+
+# ------------------------------------------------------------------------------
+# real study tasks (tiny): resume after a kill, Dask LocalCluster
+
+
+def _tiny_tasks():
+    from bandopt.search._study import make_study_task
+
+    kw = dict(preset="tiny", partitions=1, restarts=2, steps=4, atmospheres="none")
+    return [make_study_task(n_bands=1, **kw), make_study_task(n_bands=2, **kw)]
+
+
+RUNNER = "bandopt.search._study:run_study_task"
+_VOLATILE = ("wall_s", "search_s", "evals_per_s")
+
+
+def _stable(r):
+    return json.dumps(
+        {k: v for k, v in r.items() if k not in _VOLATILE}, sort_keys=True
+    )
+
+
+@pytest.fixture(scope="module")
+def full_sweep(tmp_path_factory):
+    from bandopt.search import run_sweep
+
+    out = tmp_path_factory.mktemp("full")
+    return run_sweep(_tiny_tasks(), out, runner=RUNNER)
+
+
+def test_killed_sweep_resumes_with_identical_results(full_sweep, tmp_path):
+    from bandopt.search import run_sweep
+    from bandopt.search._sweep import task_path
+
+    tasks = _tiny_tasks()
+    run_sweep(tasks[:1], tmp_path, runner=RUNNER)  # "killed" after the first task
+    first = task_path(tmp_path, tasks[0]).stat().st_mtime_ns
+    res = run_sweep(tasks, tmp_path, runner=RUNNER)
+    assert task_path(tmp_path, tasks[0]).stat().st_mtime_ns == first  # not rerun
+    assert [_stable(r) for r in res] == [_stable(r) for r in full_sweep]
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")
+@pytest.mark.filterwarnings("ignore::ResourceWarning")
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_study_task_on_a_dask_local_cluster(full_sweep, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    from bandopt.search import run_sweep
+    from bandopt.search._sweep import _worker_env
+
+    tasks = _tiny_tasks()[:1]
+    with _worker_env():  # spawned worker processes: x64, CPU, XLA flags
+        cluster = distributed.LocalCluster(
+            processes=True, n_workers=1, threads_per_worker=1, dashboard_address=None
+        )
+    with cluster, distributed.Client(cluster):
+        res = run_sweep(
+            tasks, tmp_path, scheduler=cluster.scheduler_address, runner=RUNNER
+        )
+    # same code path; a spawned worker's single-threaded XLA may round the
+    # last digits differently from this process, so compare numerically
+    a, b = res[0], full_sweep[0]
+    for key in ("inner_loss", "snr", "max_overlap"):
+        np.testing.assert_allclose(a[key], b[key], rtol=1e-9)
+    for da, db in zip(a["designs"], b["designs"], strict=True):
+        np.testing.assert_allclose(da["centre_nm"], db["centre_nm"], rtol=1e-9)
+        np.testing.assert_allclose(da["fwhm_nm"], db["fwhm_nm"], rtol=1e-9)
+    assert [s["labels_pred"] for s in a["scores"]] == [
+        s["labels_pred"] for s in b["scores"]
+    ]
