@@ -134,6 +134,20 @@ def test_class_term_equals_cv_loss_arithmetic(synth):
     )
 
 
+def test_shared_ridge_equals_one_fit_per_column(synth):
+    """The fast path (one Gram matrix per split for all columns sharing the
+    weights) gives the terms of one `fit_ridge` per column."""
+    space = Space(3, min_fwhm_nm=20.0)
+    args = (synth["toa"], synth["wl"], synth["table"], synth["res"], space)
+    fast = make_batch_data(*args)
+    slow = make_batch_data(*args, shared=False)
+    for seed in (0, 1):
+        u = jnp.asarray(np.random.default_rng(seed).uniform(0.05, 0.95, space.dim))
+        a = np.asarray(design_terms(fast, space, u, 2))
+        b = np.asarray(design_terms(slow, space, u, 2))
+        np.testing.assert_allclose(a, b, rtol=1e-10)
+
+
 def test_float32_loss_agrees_with_float64(synth):
     space = Space(3, min_fwhm_nm=20.0)
     kw = dict(noise=False)

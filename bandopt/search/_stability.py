@@ -105,6 +105,8 @@ class BatchData(eqx.Module):
     sensor: object
     shape_k: float = eqx.field(static=True, default=6.0)
     lam: float = eqx.field(static=True, default=SEARCH_LAMBDA)
+    metric_groups: tuple = eqx.field(static=True, default=((0,), (1,), (2,)))
+    shared: bool = eqx.field(static=True, default=True)
 
 
 def make_batch_data(
@@ -118,9 +120,12 @@ def make_batch_data(
     noise_radiance: float | None = None,
     seed: int = 0,
     dtype=jnp.float64,
+    shared: bool = True,
 ) -> BatchData:
     """`BatchData` over all lamps of `table` for `resamples` (the search of
-    resample r only sees its training lamps: every other scene has weight 0)."""
+    resample r only sees its training lamps: every other scene has weight 0).
+    `shared`: fit columns with the same weights as one multi-output ridge
+    (`shared_ridge_cv`, the fast path); False: one `fit_ridge` per column."""
     from ..sensor import SensorParams
 
     toa = np.asarray(toa_lamp).reshape(-1, toa_lamp.shape[-1])
@@ -155,7 +160,17 @@ def make_batch_data(
             np.random.default_rng(seed).standard_normal((toa.shape[0], n_b)), dtype
         )
         sensor = SensorParams()
+    groups: list[list[int]] = []
+    for m in range(3):  # metrics with identical validity share one ridge system
+        for g in groups:
+            if np.array_equal(valid[:, g[0]], valid[:, m]):
+                g.append(m)
+                break
+        else:
+            groups.append([m])
     return BatchData(
+        metric_groups=tuple(tuple(g) for g in groups),
+        shared=shared,
         toa=jnp.asarray(toa, dtype),
         wavelength_nm=wl,
         y=jnp.asarray(y, dtype),
@@ -204,6 +219,24 @@ def design_terms(data: BatchData, space, u, r):
         resp = jnp.concatenate([free, data.fixed_response], axis=0)
     x = log_ratio_features(_radiance(data, resp))
     tw, vw = data.train_w[r], data.val_w[r]
+    c = data.onehot.shape[1]
+    if data.shared:
+        sp = data.spread[r]
+        est = 0.0
+        for g in data.metric_groups:
+            idx = np.asarray(g)
+            mask = data.valid[:, g[0]].astype(x.dtype)
+            mse = shared_ridge_cv(x, data.y[:, idx], mask, tw, vw, data.lam)
+            ok = sp[idx] > 0
+            inv = jnp.where(ok, 1.0 / jnp.where(ok, sp[idx], 1.0) ** 2, 0.0)
+            est = est + jnp.sum(jnp.mean(mse, axis=0) * inv)
+        est = est / 3.0
+        ones = jnp.ones(x.shape[0], x.dtype)
+        mse = shared_ridge_cv(x, data.onehot, ones, tw, vw, data.lam)
+        cls = jnp.sum(jnp.mean(mse, axis=0)) / (1.0 - 1.0 / c)
+        ov = overlap_matrix(free)
+        pen = 0.5 * jnp.sum(jnp.maximum(ov - MAX_OVERLAP, 0.0) ** 2)
+        return est, cls, pen
     est = (
         cv_loss(
             x,
@@ -217,11 +250,46 @@ def design_terms(data: BatchData, space, u, r):
         )
         / 3.0
     )
-    c = data.onehot.shape[1]
     cls = class_cv_loss(x, data.onehot, tw, vw, data.lam) / (1.0 - 1.0 / c)
     ov = overlap_matrix(free)
     pen = 0.5 * jnp.sum(jnp.maximum(ov - MAX_OVERLAP, 0.0) ** 2)
     return est, cls, pen
+
+
+def shared_ridge_cv(x, Y, mask, train_w, val_w, lam):
+    """Validation MSE `(S, c)` of ridge fits of every column of `Y (N, c)` on
+    features `x (N, p)`, with training weights `train_w·mask` and validation
+    weights `val_w·mask` (normalised) of each split: the arithmetic of
+    `bandopt.estimate.fit_ridge` (weighted standardisation, centring,
+    unpenalised intercept, `(XᵀWX + λI) β = XᵀWy`) done ONCE per split for
+    all columns (they share the weights, hence the Gram matrix)."""
+    hi = jax.lax.Precision.HIGHEST
+
+    def one(t, v):
+        w = t * mask
+        sw = jnp.sum(w)
+        sw = jnp.where(sw > 0, sw, 1.0)
+        mu = jnp.sum(w[:, None] * x, 0) / sw
+        var = jnp.sum(w[:, None] * (x - mu[None, :]) ** 2, 0) / sw
+        pos = var > 1e-24
+        sd = jnp.where(pos, jnp.sqrt(jnp.where(pos, var, 1.0)), 1.0)
+        xs = (x - mu[None, :]) / sd[None, :]
+        yy = jnp.where(w[:, None] > 0, Y, 0.0)
+        mx = jnp.sum(w[:, None] * xs, 0) / sw
+        my = jnp.sum(w[:, None] * yy, 0) / sw
+        xc = xs - mx[None, :]
+        xw = xc * w[:, None]
+        gram = jnp.matmul(xw.T, xc, precision=hi)
+        rhs = jnp.matmul(xw.T, yy - my[None, :], precision=hi)
+        beta = jnp.linalg.solve(gram + lam * jnp.eye(x.shape[1], dtype=gram.dtype), rhs)
+        b0 = my - mx @ beta
+        pred = jnp.matmul(xs, beta, precision=hi) + b0[None, :]
+        vv = v * mask
+        sv = jnp.sum(vv)
+        vn = vv / jnp.where(sv > 0, sv, 1.0)
+        return jnp.sum(vn[:, None] * (pred - Y) ** 2, axis=0)
+
+    return jax.vmap(one)(train_w, val_w)
 
 
 def class_cv_loss(x, onehot, train_w, val_w, lam):
