@@ -640,16 +640,23 @@ def _study_tasks(args, *, ns=None, alphas=(0.0,), refs=False):
 
 
 class _Progress:
-    """Progress with an estimate of the time left (stderr)."""
+    """Progress with an estimate of the time left in the phase (stderr): the
+    elapsed time per unit of expected cost (a search task costs its band
+    count + 1, a reference sensor 0.15) times the expected cost left."""
 
-    def __init__(self, total_tasks: int, workers: int):
+    def __init__(self, tasks, out):
+        from bandopt.search._sweep import task_path
+
         self.t0 = time.perf_counter()
-        self.total = total_tasks
-        self.workers = max(1, workers)
+        self.cost = {str(task_path(out, t)): _task_cost(t) for t in tasks}
+        self.total = sum(self.cost.values())
+        self.done_cost = 0.0
 
     def __call__(self, done, total, status):
         el = time.perf_counter() - self.t0
-        left = el / done * (total - done) if done else float("nan")
+        self.done_cost += self.cost.get(status["path"], 1.0)
+        rate = el / max(self.done_cost, 1e-9)
+        left = rate * max(self.total - self.done_cost, 0.0)
         name = Path(status["path"]).stem
         mark = "ok" if status.get("ok") else f"FAILED {status.get('error')}"
         print(
@@ -658,6 +665,10 @@ class _Progress:
             file=sys.stderr,
             flush=True,
         )
+
+
+def _task_cost(task) -> float:
+    return 0.15 if task.get("sensor") else float(task["n_bands"] + 1)
 
 
 def _sweep(tasks, args, label):
@@ -692,7 +703,9 @@ def _sweep(tasks, args, label):
         workers=args.workers,
         scheduler=args.scheduler,
         runner=RUNNER,
-        progress=_Progress(todo, args.workers),
+        progress=_Progress(
+            [t for t in tasks if args.force or not task_path(out, t).is_file()], out
+        ),
     )
     missing = [t for t, r in zip(tasks, res, strict=True) if r is None]
     if missing:
@@ -807,7 +820,9 @@ def _tolerance(ctx, bands, res, scorer, seed, sd):
         "(one band at a time for centre and FWHM; all bands for leakage and "
         "angle of incidence) around nominal within which the partition-mean "
         "MAE of LER, G and CCT all stay <= 1.10 x nominal; estimator fitted to "
-        "the nominal bands (deviation not calibrated out), same noise draws",
+        "the nominal bands (deviation not calibrated out), same noise draws; "
+        "an interval ending on the scan limit (+/-10 nm, x0.8-1.2, 20 deg, "
+        "5 %) means at least that",
         "nominal_mae": dict(zip(("LER", "G", "CCT"), map(float, nominal), strict=True)),
         "per_band": per_band,
         "leakage_interval": leak,
@@ -1028,7 +1043,7 @@ def study(args) -> dict:
         },
         "partitions": args.partitions,
         "resamples": len(res),
-        "noise": f"photon noise at EN 13201 class {STUDY['noise']} (thesis Table "
+        "noise": f"Photon noise at EN 13201 class {STUDY['noise']} (thesis Table "
         "2.3 sensor, shot noise); evaluation draws differ from search draws",
         "normalisation": NORMALISATION_NOTE,
         "truth_sd": dict(zip(METRICS, map(float, sd), strict=True)),
