@@ -1105,6 +1105,14 @@ def study(args) -> dict:
         )
         + "\n"
     )
+    sat = np.asarray(rec_run["saturated"], bool)
+    tr = np.asarray(rec_run["trace_every_20_steps"], float)  # (R, checkpoints)
+    stab["optimiser"] = {
+        "note": rec_run["optimiser"],
+        "parameters_on_a_bound": int(sat.sum()),
+        "parameters": int(sat.size),
+        "last_checkpoint_gain": float(np.median(1 - tr[:, -1] / tr[:, -2])),
+    }
     stab_json = {
         "set": rec_key,
         **stab,
@@ -1270,6 +1278,7 @@ def write_study_readme(s, stab, tol, rec_key, wall, out: Path) -> None:
         f"{v['fwhm_factor_interval']}"
         for b, v in tol["per_band"].items()
     ]
+    gain = stab["optimiser"]["last_checkpoint_gain"]
     freq = ", ".join(f"{k} {v:.0%}" for k, v in stab["region_frequency"].items())
     body = f"""{start}
 ## Spectral band search: stability study (`{out}`, `make run`)
@@ -1299,7 +1308,10 @@ Recommended: **{rec_key}**, design = {stab["rule"]}:
 {chr(10).join(blines)}
 ```
 
-Region frequency over resamples: {freq}.
+Region frequency over resamples: {freq}. Optimiser: {stab["optimiser"]["note"]};
+{stab["optimiser"]["parameters_on_a_bound"]} of {stab["optimiser"]["parameters"]}
+unit-box parameters of the per-resample designs on a bound (within 1e-3); median
+relative loss gain between the last two checkpoints (20 steps) {gain:.1e}.
 
 Tolerance ({tol["rule"]}): {"; ".join(tl)};
 leakage interval {tol["leakage_interval"]}

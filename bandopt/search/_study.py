@@ -250,6 +250,10 @@ def run_study_task(task: dict) -> dict:
         "inner_loss": s["loss"].tolist(),
         "inner_terms": terms,
         "restart_losses": s["restart_losses"].tolist(),
+        "optimiser": f"Adam, {task['steps']} fixed steps (no convergence "
+        "criterion), lr on the logit of the unit box, best point of each restart",
+        "trace_every_20_steps": s["trace"][::20].T.tolist(),
+        "saturated": ((s["u"] < 1e-3) | (s["u"] > 1 - 1e-3)).tolist(),
         "max_overlap": overlaps,
         "snr": snrs,
         "scores": scores,
