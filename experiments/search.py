@@ -1111,7 +1111,9 @@ def study(args) -> dict:
         "note": rec_run["optimiser"],
         "parameters_on_a_bound": int(sat.sum()),
         "parameters": int(sat.size),
-        "last_checkpoint_gain": float(np.median(1 - tr[:, -1] / tr[:, -2])),
+        "last_checkpoint_gain": (
+            float(np.median(1 - tr[:, -1] / tr[:, -2])) if tr.shape[1] > 1 else None
+        ),
     }
     stab_json = {
         "set": rec_key,
@@ -1279,6 +1281,7 @@ def write_study_readme(s, stab, tol, rec_key, wall, out: Path) -> None:
         for b, v in tol["per_band"].items()
     ]
     gain = stab["optimiser"]["last_checkpoint_gain"]
+    gain = "n/a" if gain is None else f"{gain:.1e}"
     freq = ", ".join(f"{k} {v:.0%}" for k, v in stab["region_frequency"].items())
     body = f"""{start}
 ## Spectral band search: stability study (`{out}`, `make run`)
@@ -1311,7 +1314,7 @@ Recommended: **{rec_key}**, design = {stab["rule"]}:
 Region frequency over resamples: {freq}. Optimiser: {stab["optimiser"]["note"]};
 {stab["optimiser"]["parameters_on_a_bound"]} of {stab["optimiser"]["parameters"]}
 unit-box parameters of the per-resample designs on a bound (within 1e-3); median
-relative loss gain between the last two checkpoints (20 steps) {gain:.1e}.
+relative loss gain between the last two checkpoints (20 steps) {gain}.
 
 Tolerance ({tol["rule"]}): {"; ".join(tl)};
 leakage interval {tol["leakage_interval"]}
