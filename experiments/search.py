@@ -1282,6 +1282,18 @@ def write_study_readme(s, stab, tol, rec_key, wall, out: Path) -> None:
     ]
     gain = stab["optimiser"]["last_checkpoint_gain"]
     gain = "n/a" if gain is None else f"{gain:.1e}"
+    rate = "not measured (`make bench`)"
+    bench = Path("results") / "bench" / "search.json"
+    if bench.is_file():
+        rows = json.loads(bench.read_text()).get("eval_rate", {}).get("rows", [])
+        if rows:
+            rate = "; ".join(
+                f"n = {r['n_free_bands']}: {r['before_evals_per_s']:.0f} -> "
+                f"{r['after_evals_per_s_float64']:.0f} evaluations/s "
+                f"({r['ratio_float64']:.1f}x; float32 {r['ratio_float32']:.1f}x, "
+                f"max relative loss difference {r['float32_max_rel_loss_diff']:.0e})"
+                for r in rows
+            )
     freq = ", ".join(f"{k} {v:.0%}" for k, v in stab["region_frequency"].items())
     body = f"""{start}
 ## Spectral band search: stability study (`{out}`, `make run`)
@@ -1294,7 +1306,10 @@ class-stratified); bands searched on each outer training set (12 restarts x
 Adam, all resamples and restarts in one compiled function), scored on its
 test lamps. Multispectral bands: FWHM >= 20 nm, pairwise overlap <= 0.25,
 supports inside the data (380-900 nm), fixed PAN 400-880 nm. {s["normalisation"]}.
-Wall time of this run: {wall:.0f} s.
+Wall time of this run: {wall:.0f} s. Loss evaluations (value and gradient of
+one design on one resample; the batched loss also carries the classification
+term) of the single-split search -> the batched search, `results/bench/search.json`:
+{rate}.
 
 Band count ({ch["rule"]}): best n = {ch["best_n"]}, chosen n = {ch["chosen_n"]}.
 Paired difference of normalised MAE to the next n (mean +/- SD over partitions): {pair}.
