@@ -671,6 +671,10 @@ def _task_cost(task) -> float:
     return 0.15 if task.get("sensor") else float(task["n_bands"] + 1)
 
 
+_REUSED: list[tuple[int, int]] = []
+"""(tasks reused from the cache, tasks) of each sweep of this process."""
+
+
 def _sweep(tasks, args, label):
     from bandopt.search import run_sweep
     from bandopt.search._sweep import task_path
@@ -707,6 +711,7 @@ def _sweep(tasks, args, label):
             [t for t in tasks if args.force or not task_path(out, t).is_file()], out
         ),
     )
+    _REUSED.append((0 if args.force else len(cached), len(tasks)))
     missing = [t for t, r in zip(tasks, res, strict=True) if r is None]
     if missing:
         raise RuntimeError(
@@ -1205,6 +1210,7 @@ def study(args) -> dict:
             "bands": args.bands,
             "context": ctx.config,
             "wall_s": wall,
+            "tasks_reused_per_phase": [list(v) for v in _REUSED],
             "modelled_spectra_scored": "see context (library selection scored_only)",
         },
     )
@@ -1282,6 +1288,10 @@ def write_study_readme(s, stab, tol, rec_key, wall, out: Path) -> None:
     ]
     gain = stab["optimiser"]["last_checkpoint_gain"]
     gain = "n/a" if gain is None else f"{gain:.1e}"
+    n_re, n_all = (sum(v) for v in zip(*_REUSED, strict=True)) if _REUSED else (0, 0)
+    reused = (
+        f"{n_re} of {n_all} tasks reused from the cache" if n_re else "all recomputed"
+    )
     rate = "not measured (`make bench`)"
     bench = Path("results") / "bench" / "search.json"
     if bench.is_file():
@@ -1306,7 +1316,7 @@ class-stratified); bands searched on each outer training set (12 restarts x
 Adam, all resamples and restarts in one compiled function), scored on its
 test lamps. Multispectral bands: FWHM >= 20 nm, pairwise overlap <= 0.25,
 supports inside the data (380-900 nm), fixed PAN 400-880 nm. {s["normalisation"]}.
-Wall time of this run: {wall:.0f} s. Loss evaluations (value and gradient of
+Wall time of this run: {wall:.0f} s ({reused}). Loss evaluations (value and gradient of
 one design on one resample; the batched loss also carries the classification
 term) of the single-split search -> the batched search, `results/bench/search.json`:
 {rate}.
