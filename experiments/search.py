@@ -877,7 +877,7 @@ def plot_stability(designs, stab, path, title):
     plt.close(fig)
 
 
-def plot_pareto(cands, refs, rec_key, path, note):
+def plot_pareto(cands, refs, rec_key, path, note, others=None):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -902,6 +902,11 @@ def plot_pareto(cands, refs, rec_key, path, note):
         zorder=5,
         label=f"recommended: {rec_key}",
     )
+    for k, v in (others or {}).items():
+        if k in cands:
+            continue
+        ax.scatter([v["norm_mae_mean"]], [1 - v["f1_mean"]], marker="o", color="0.7")
+        ax.annotate(k, (v["norm_mae_mean"], 1 - v["f1_mean"]), fontsize=6, color="0.5")
     for k, v in refs.items():
         ax.scatter(
             [v["norm_mae_mean"]], [1 - v["f1_mean"]], marker="x", color="0.4", s=30
@@ -911,7 +916,9 @@ def plot_pareto(cands, refs, rec_key, path, note):
     ax.set_xlabel("normalised MAE (LER, G, CCT), mean over partitions")
     ax.set_ylabel("1 - level-2 macro F1 (KNN), mean over partitions")
     ax.set_title(
-        "Pareto front (red rings: non-dominated in MAE, 1-F1, -log SNR)", fontsize=9
+        "Pareto front at the chosen n (red rings: non-dominated in MAE, 1-F1, "
+        "-log SNR); grey: other n at alpha 0; x: reference sensors",
+        fontsize=9,
     )
     ax.legend(fontsize=8)
     fig.text(0.01, 0.005, note, fontsize=6)
@@ -1141,7 +1148,9 @@ def study(args) -> dict:
         f"Designs of {rec_key} on {len(res)} lamp resamples "
         f"({args.partitions} partitions x 3 folds); bottom: recommended (medoid)",
     )
-    plot_pareto(cands, ref_sum, rec_key, out / "pareto.png", PARETO_RULE)
+    plot_pareto(
+        cands, ref_sum, rec_key, out / "pareto.png", PARETO_RULE, others=designs
+    )
     # tolerance
     print("tolerance analysis of the recommended set", file=sys.stderr, flush=True)
     rows, tol = _tolerance(ctx, bands, res, args.scorer, args.seed, sd)
