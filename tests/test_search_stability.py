@@ -51,9 +51,10 @@ def synth():
         ]
     )
     classes = np.array(["a", "b", "c"] * (n_lamps // 3), dtype=object)
-    table = LampTable(
-        np.repeat(np.arange(n_lamps), q), classes, truth, np.ones_like(truth, bool)
-    )
+    valid = np.ones_like(truth, bool)
+    valid[[1, 7, 20], 2] = False  # CCT not meaningful for three lamps
+    truth[~valid] = np.nan
+    table = LampTable(np.repeat(np.arange(n_lamps), q), classes, truth, valid)
     res = lamp_resamples(classes, 2, seed=0)
     return {"wl": wl, "toa": toa, "table": table, "res": res}
 

@@ -106,6 +106,7 @@ class BatchData(eqx.Module):
     shape_k: float = eqx.field(static=True, default=6.0)
     lam: float = eqx.field(static=True, default=SEARCH_LAMBDA)
     metric_groups: tuple = eqx.field(static=True, default=((0,), (1,), (2,)))
+    full_groups: tuple = eqx.field(static=True, default=(False, False, False))
     shared: bool = eqx.field(static=True, default=True)
 
 
@@ -170,6 +171,7 @@ def make_batch_data(
             groups.append([m])
     return BatchData(
         metric_groups=tuple(tuple(g) for g in groups),
+        full_groups=tuple(bool(np.asarray(valid)[:, g[0]].all()) for g in groups),
         shared=shared,
         toa=jnp.asarray(toa, dtype),
         wavelength_nm=wl,
@@ -223,17 +225,28 @@ def design_terms(data: BatchData, space, u, r):
     if data.shared:
         sp = data.spread[r]
         est = 0.0
-        for g in data.metric_groups:
+        cls = None
+        for g, full in zip(data.metric_groups, data.full_groups, strict=True):
             idx = np.asarray(g)
-            mask = data.valid[:, g[0]].astype(x.dtype)
-            mse = shared_ridge_cv(x, data.y[:, idx], mask, tw, vw, data.lam)
             ok = sp[idx] > 0
             inv = jnp.where(ok, 1.0 / jnp.where(ok, sp[idx], 1.0) ** 2, 0.0)
-            est = est + jnp.sum(jnp.mean(mse, axis=0) * inv)
+            if full:  # every scene valid: the same weights as the class columns
+                ones = jnp.ones(x.shape[0], x.dtype)
+                ys = jnp.concatenate([data.y[:, idx], data.onehot], axis=1)
+                mse = jnp.mean(shared_ridge_cv(x, ys, ones, tw, vw, data.lam), 0)
+                cls = jnp.sum(mse[len(g) :])
+                mse = mse[: len(g)]
+            else:
+                mask = data.valid[:, g[0]].astype(x.dtype)
+                mse = shared_ridge_cv(x, data.y[:, idx], mask, tw, vw, data.lam)
+                mse = jnp.mean(mse, axis=0)
+            est = est + jnp.sum(mse * inv)
         est = est / 3.0
-        ones = jnp.ones(x.shape[0], x.dtype)
-        mse = shared_ridge_cv(x, data.onehot, ones, tw, vw, data.lam)
-        cls = jnp.sum(jnp.mean(mse, axis=0)) / (1.0 - 1.0 / c)
+        if cls is None:
+            ones = jnp.ones(x.shape[0], x.dtype)
+            mse = shared_ridge_cv(x, data.onehot, ones, tw, vw, data.lam)
+            cls = jnp.sum(jnp.mean(mse, axis=0))
+        cls = cls / (1.0 - 1.0 / c)
         ov = overlap_matrix(free)
         pen = 0.5 * jnp.sum(jnp.maximum(ov - MAX_OVERLAP, 0.0) ** 2)
         return est, cls, pen

@@ -144,7 +144,7 @@ def _resamples(preset, noise, atmospheres, partitions, seed):
 
 STUDY_TASK = {
     "kind": "stability",
-    "version": 2,  # bump when a task's result changes for the same fields
+    "version": 3,  # bump when a task's result changes for the same fields
     "preset": "search",
     "noise": "P4",
     "atmospheres": "auto",
