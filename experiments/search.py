@@ -864,7 +864,7 @@ def plot_stability(designs, stab, path, title):
         fontsize=7,
     )
     ax.set_xlabel(
-        "wavelength [nm] (bar: centre +/- FWHM/2; shade: 10-90 % centre interval)"
+        "wavelength [nm] (bar: centre +/- FWHM/2; shade: range of the centre)"
     )
     ax.set_title(title, fontsize=9)
     freq = stab["region_frequency"]
@@ -1183,7 +1183,7 @@ def study(args) -> dict:
             "set": rec_key,
             "bands": band_rows,
             "band_set": bands.to_dict(),
-            "intervals": "centre/fwhm_interval_nm: 10th-90th percentile over "
+            "intervals": "centre/fwhm_interval_nm: range (min-max) over the "
             f"{len(res)} lamp resamples (stability); the PAN band is fixed",
             "tolerances": "centre_tolerance_nm / fwhm_tolerance_factor: deviation "
             "within which all errors stay within 10 % (tolerance.json)",

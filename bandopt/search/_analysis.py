@@ -14,8 +14,8 @@ Stated rules (also written into every output):
   nearest the utopia point (0, 0, 0) in Euclidean distance;
 - *recommended design*: the medoid of the per-resample designs of the chosen
   (n, alpha) (least summed distance in (centre, FWHM) [nm]); per-band
-  intervals are the 10th-90th percentiles of the matched (sorted by centre)
-  bands over resamples.
+  intervals are the range (min-max) of the matched (sorted by centre) bands
+  over resamples, so they always contain the recommended design.
 """
 
 import itertools
@@ -41,8 +41,8 @@ PARETO_RULE = (
 )
 DESIGN_RULE = (
     "medoid of the per-resample designs (least summed Euclidean distance in "
-    "(centre, FWHM) [nm], bands sorted by centre); intervals: 10th-90th "
-    "percentile of each sorted band over resamples"
+    "(centre, FWHM) [nm], bands sorted by centre); intervals: range (min-max) "
+    "of each sorted band over resamples"
 )
 
 
@@ -164,8 +164,9 @@ def knee(points: np.ndarray, mask: np.ndarray) -> int:
     return int(idx[np.argmin(d)])
 
 
-def design_intervals(designs, lo_q: float = 10.0, hi_q: float = 90.0) -> dict:
-    """Medoid and per-band percentile intervals of sorted designs."""
+def design_intervals(designs, lo_q: float = 0.0, hi_q: float = 100.0) -> dict:
+    """Medoid and per-band percentile intervals (default: min-max) of sorted
+    designs."""
     from ._stability import medoid, region_frequency
 
     pairs = [(np.asarray(d["centre_nm"]), np.asarray(d["fwhm_nm"])) for d in designs]
