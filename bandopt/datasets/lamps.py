@@ -9,11 +9,24 @@ Sources (keys in `references.bib`):
   380-780 nm at 5 nm;
 - 13 LI-1800 measurements (`Aphalo2023`), 300-900 nm, photon units converted
   to energy;
+- the LSPDD (`LSPDD2016`): about 200 lamps measured 273-899.5 nm (LED incl.
+  outdoor road, wall-pack and step luminaires, CFL, halogen, incandescent,
+  metal halide), vendored verbatim (CC BY-NC-ND 2.5 CA) and parsed in memory;
+  switchable: `library(lspdd=False)` or the environment variable
+  `BANDOPT_LSPDD=0` builds the library without it (`LSPDD_ENV`);
+- the photobiology R data (`Aphalo2025lamps`, `Aphalo2025leds`, GPL >= 2):
+  CFLs, linear fluorescents, household LED bulbs and tubes, white LED packages,
+  incandescent/halogen and amber LED emitters, ~251-899 nm, converted by
+  `_lamps_build` (the 13 LI-1800 lamps it also holds are not taken twice);
+- the color-pollution outdoor set (`Robinson2016`, MIT): LPS, HPS, metal
+  halide, mercury, field LEDs, a measured PC-amber LED, 380-930 nm. The
+  provenance of most of its files is not documented (`provenance_documented`
+  False); their line positions are checked in `tests/test_lamps.py`;
 - modelled spectra from Planck's law (`Planck1901`): incandescent 2400-3200 K
   and fire 700-1200 K, labelled `modelled` and not counted as lamps.
 
 Reserved for independent validation, never loaded here: the IES TM-30 sample
-spectra (luxpy) and the Illumina/LSPDD example spectra.
+spectra (luxpy) and the LSPDD records absent from the vendored set.
 
 **Grid and units.** Every spectrum is linearly interpolated onto the library
 grid (default `GRID_1NM`, 380-900 nm at 1 nm) and normalised to one lumen:
@@ -21,7 +34,10 @@ grid (default `GRID_1NM`, 380-900 nm at 1 nm) and normalised to one lumen:
 [W nm⁻¹ lm⁻¹]; multiplied by an illuminance [lx] they give spectral irradiance
 [W m⁻² nm⁻¹]. Beyond a spectrum's measured range the values are the
 near-infrared extension of `bandopt.datasets.nir` (flag `extended`), or NaN
-when the extension is switched off (`library(extend_nir=False)`).
+when the extension is switched off (`library(extend_nir=False)`). A spectrum
+measured to within `EDGE_HOLD_NM` of the grid end (LSPDD to 899.5 nm,
+photobiology to ~899 nm) is measured, not extended: its last sample is held
+over the remaining < `EDGE_HOLD_NM` (flag `nir_measured`).
 
 **Typology** (fixed identifiers): level 1 `LEVEL1`, level 2 `LEVEL2`. White
 phosphor LEDs are `led_warm` for CCT <= 3500 K and `led_cool` above. A
@@ -29,16 +45,32 @@ level-2 class with fewer than `MIN_LAMPS_FOR_SCORING` distinct measured lamps is
 "insufficient for scoring". Research RGB mixes are `led_rgb` (their own class,
 never scored); coloured fluorescent tubes (|Duv| > 0.02) have no level-2 class
 and are excluded from scoring, as are fluorescent tubes whose CCT lies
-outside 1000-25000 K (the red TL-D /15).
+outside 1000-25000 K (the red TL-D /15). An LED whose chromaticity has an
+excitation purity >= `AMBER_MIN_PURITY` (against illuminant E) and a dominant
+wavelength in `AMBER_DOMINANT_NM` (amber and yellow-filtered light for dark-sky
+areas) is `led_amber`, subtype `direct_amber` (AlInGaP emitters: spectral
+width at half maximum < `DIRECT_AMBER_MAX_WIDTH_NM`), `pc_amber` (broad, and a
+blue pump leaks: >= `PC_AMBER_MIN_BLUE` of its visible power below 500 nm) or
+`broad_amber` (broad without blue: a phosphor or a filtered white luminaire,
+the spectrum cannot tell); the source's own label wins where it has one. Any
+other LED off the white region
+(|Duv| > 0.02 or CCT outside 1000-25000 K) is a coloured LED: no level-2
+class, never scored. HPS lamps with CCT >= `WHITE_SON_MIN_CCT_K` are subtype
+`white_son` (high-CRI HPS): their NIR extension is never flagged validated (no
+measured White SON reaches 900 nm here).
 
 **Deduplication rule** (`DUPLICATE_RMS`): two spectra, each normalised to unit
 visible power and compared on 380-780 nm at 5 nm, are the same lamp when the
 RMS of their difference is below 3 % of their mean value; the copy from the
-source listed first in `SOURCE_PRIORITY` is kept.
+source listed first in `SOURCE_PRIORITY` is kept (within a source, a copy with
+documented provenance first). The rule runs across all sources, including
+colour-science's CIE and NIST sets.
 """
 
 import dataclasses
 import functools
+import json
+import os
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -81,10 +113,44 @@ MIN_LAMPS_FOR_SCORING = 3
 LED_WARM_MAX_CCT_K = 3500.0
 COLOURED_DUV = 0.02
 DUPLICATE_RMS = 0.03
-SOURCE_PRIORITY = ("li1800", "nist_philips", "nist_traditional", "nist_led", "cie015")
+SOURCE_PRIORITY = (
+    "li1800",
+    "nist_philips",
+    "nist_traditional",
+    "nist_led",
+    "cie015",
+    "color_pollution",
+    "photobiology",
+    "lspdd",
+)
+"""Which copy of a duplicate is kept: the first source listed. The old sources
+come first so the ids other modules name (e.g. `nist_traditional_hps`) stay."""
 NEVER_SCORED = ("led_rgb",)
+AMBER_MIN_PURITY = 0.9
+AMBER_DOMINANT_NM = (575.0, 610.0)
+PC_AMBER_MIN_BLUE = 0.002
+DIRECT_AMBER_MAX_WIDTH_NM = 40.0
+WHITE_SON_MIN_CCT_K = 2300.0
+EDGE_HOLD_NM = 5.0
+LSPDD_ENV = "BANDOPT_LSPDD"
 
-_LI1800 = Path(__file__).parent / "data" / "lamps_li1800"
+_DATA = Path(__file__).parent / "data"
+_LI1800 = _DATA / "lamps_li1800"
+_LSPDD = _DATA / "lamps_lspdd"
+_PHOTOBIOLOGY = _DATA / "lamps_photobiology"
+_COLOR_POLLUTION = _DATA / "lamps_color_pollution"
+
+LICENCES = {
+    "li1800": "GPL (>= 2)",
+    "photobiology": "GPL (>= 2)",
+    "lspdd": "CC BY-NC-ND 2.5 CA (verbatim, switchable)",
+    "color_pollution": "MIT",
+    "nist_philips": "NIST data via colour-science (BSD-3-Clause)",
+    "nist_traditional": "NIST data via colour-science (BSD-3-Clause)",
+    "nist_led": "NIST data via colour-science (BSD-3-Clause)",
+    "cie015": "CIE 015:2018 data via colour-science (BSD-3-Clause)",
+    "planck": "modelled",
+}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -104,6 +170,15 @@ class LampRecord:
     - `cie_typical`: a CIE 015 typical spectrum, not a specific product.
     - `excluded`: reason the lamp is kept out of scored classes (or None).
     - `duplicates`: ids of near-duplicates removed in its favour.
+    - `licence`: licence of the source data.
+    - `provenance_documented`: the source documents instrument and lamp (False
+      for most color-pollution files: line positions checked instead).
+    - `subtype`: finer type where it matters (`pc_amber`, `direct_amber`,
+      `white_son`) or None.
+    - `nir_measured`: the spectrum itself is measured to the grid end (within
+      `EDGE_HOLD_NM`), so nothing beyond 780 nm is modelled.
+    - `nir_note`: where its values beyond 780 nm come from, and whether the
+      extension of its technology has measured evidence.
     """
 
     id: str
@@ -120,6 +195,11 @@ class LampRecord:
     cie_typical: bool
     excluded: str | None
     duplicates: tuple[str, ...] = ()
+    licence: str = ""
+    provenance_documented: bool = True
+    subtype: str | None = None
+    nir_measured: bool = False
+    nir_note: str = ""
 
     def as_dict(self) -> dict:
         d = dataclasses.asdict(self)
@@ -138,6 +218,7 @@ class LampLibrary:
     - `insufficient`: level-2 classes with fewer than `MIN_LAMPS_FOR_SCORING`
       distinct measured lamps ("insufficient for scoring").
     - `removed`: near-duplicates removed, as (removed id, kept id).
+    - `source_sets`: the collections the library was built from.
     """
 
     wavelength_nm: np.ndarray
@@ -145,6 +226,7 @@ class LampLibrary:
     records: tuple[LampRecord, ...]
     insufficient: tuple[str, ...]
     removed: tuple[tuple[str, str], ...]
+    source_sets: tuple[str, ...] = ()
 
     def __len__(self) -> int:
         return len(self.records)
@@ -206,20 +288,27 @@ class LampLibrary:
                     "level1": LEVEL2_PARENT[l2],
                     "level2": l2,
                     "lamps": n,
+                    "excluded": n_excl,
                     "cie_typical": sum(r.cie_typical for r in members),
+                    "nir_measured": sum(
+                        r.nir_measured and r.excluded is None for r in members
+                    ),
                     "status": status,
                 }
             )
-        unclassed = [r for r in lamps if r.level2 is None]
-        if unclassed:
+        for l1 in LEVEL1:
+            unclassed = [r for r in lamps if r.level2 is None and r.level1 == l1]
+            if not unclassed:
+                continue
+            kinds = sorted({r.excluded.split(" (")[0] for r in unclassed if r.excluded})
             rows.append(
                 {
-                    "level1": "fluorescent",
+                    "level1": l1,
                     "level2": None,
                     "lamps": len(unclassed),
                     "cie_typical": sum(r.cie_typical for r in unclassed),
-                    "status": "excluded: "
-                    + "; ".join(sorted({r.excluded for r in unclassed})),
+                    "nir_measured": sum(r.nir_measured for r in unclassed),
+                    "status": "excluded: " + "; ".join(kinds),
                 }
             )
         return rows
@@ -279,19 +368,42 @@ _LI1800_CLASS = {
 }
 
 
+_LSPDD_CATEGORY = {
+    "LED": None,  # decided by the spectrum (white warm/cool, amber, coloured)
+    "CFL": "fluorescent_compact",
+    "Halo": "incandescent_halogen",
+    "INC": "incandescent_halogen",
+    "MH": "metal_halide",
+    "HPS": "hps",
+    "FL": "fluorescent_linear",
+}
+"""LSPDD `category` -> level 2 (None: an LED, classified by its spectrum). The
+categories "Standard Illuminant", "Biological Sensitivities" and "sun" are not
+lamps and are not vendored (`_lamps_build.EXCLUDED_LSPDD_CATEGORIES`)."""
+
+_HINT_LEVEL2 = {
+    "led": None,
+    "led_amber_direct": "led_amber",
+    "led_amber_pc": "led_amber",
+}
+_HINT_SUBTYPE = {"led_amber_direct": "direct_amber", "led_amber_pc": "pc_amber"}
+
+
 @dataclasses.dataclass
 class _Raw:
     id: str
     name: str
     source: str
     source_set: str
-    level2: str | None  # None: phosphor LED, decided by CCT
+    level2: str | None  # None: LED, decided by its spectrum
     wavelength_nm: np.ndarray
     values: np.ndarray  # energy units
     cie_typical: bool = False
+    provenance_documented: bool = True
+    subtype: str | None = None
 
 
-def _raw_sources() -> list[_Raw]:
+def _colour_sources() -> list[_Raw]:
     import colour
     from colour.colorimetry.datasets.light_sources import sds as light_sources
 
@@ -356,6 +468,11 @@ def _raw_sources() -> list[_Raw]:
                 cie_typical=True,
             )
         )
+    return raws
+
+
+def _li1800_sources() -> list[_Raw]:
+    raws = []
     for path in sorted(_LI1800.glob("*.PRN")):
         with warnings.catch_warnings():
             # Two samples of TLD36W.15 are slightly negative (noise, documented in
@@ -373,6 +490,143 @@ def _raw_sources() -> list[_Raw]:
                 s.values,
             )
         )
+    return raws
+
+
+def parse_lspdd_spectrum(text: str, where: str = "spectraldata") -> tuple:
+    """Wavelengths [nm] and values of an LSPDD `spectraldata` CSV string.
+
+    The records mix layouts: `300.00,1.3620E-005`, `300,0.0000024599`, and a
+    decimal comma in the value (`273.5,0,00E+00` is 273.5 nm, 0.00). Lines that
+    are empty or hold no pair (`,`, `:5`) are skipped; repeated wavelengths
+    keep their first value; negative values (detector noise around zero) are
+    clipped to 0.
+    """
+    lines = text.replace("\r", "").split("\n")
+    if not lines or not lines[0].strip().lower().startswith("wavelength"):
+        raise ValueError(f"{where}: expected a 'wavelength,...' header line.")
+    w, v = [], []
+    for line in lines[1:]:
+        p = line.strip().split(",")
+        if len(p) == 3:
+            p = [p[0], f"{p[1]}.{p[2]}"]
+        if len(p) != 2 or not p[0] or not p[1]:
+            continue
+        try:
+            w.append(float(p[0]))
+            v.append(float(p[1]))
+        except ValueError as e:
+            raise ValueError(f"{where}: cannot read line {line!r}.") from e
+    w_arr, first = np.unique(np.array(w), return_index=True)
+    v_arr = np.clip(np.array(v)[first], 0.0, None)
+    if w_arr.size < 50:
+        raise ValueError(f"{where}: only {w_arr.size} samples.")
+    return w_arr, v_arr
+
+
+def _lspdd_sources() -> list[_Raw]:
+    raws = []
+    for path in sorted(_LSPDD.glob("*.json"), key=lambda p: int(p.stem)):
+        rec = json.loads(path.read_text())
+        cat = rec.get("category")
+        if cat not in _LSPDD_CATEGORY:
+            raise ValueError(
+                f"{path.name}: LSPDD category {cat!r} has no class; expected one "
+                f"of {sorted(_LSPDD_CATEGORY)}."
+            )
+        w, v = parse_lspdd_spectrum(rec["spectraldata"], f"{path.name} spectraldata")
+        label = " ".join(
+            str(x)
+            for x in (rec.get("brand"), rec.get("lamptype"), rec.get("name"))
+            if x and str(x).strip() not in ("-", "")
+        )
+        raws.append(
+            _Raw(
+                f"lspdd_{int(rec['id'])}",
+                f"LSPDD {rec['id']} {cat} {label}".strip(),
+                "LSPDD2016",
+                "lspdd",
+                _LSPDD_CATEGORY[cat],
+                w,
+                v,
+            )
+        )
+    return raws
+
+
+def _long_csv(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """`name,wavelength_nm,value` rows -> {name: (wavelength, value)}."""
+    names = np.loadtxt(path, delimiter=",", skiprows=1, usecols=0, dtype=str)
+    num = np.loadtxt(path, delimiter=",", skiprows=1, usecols=(1, 2))
+    out = {}
+    for name in dict.fromkeys(names):
+        m = names == name
+        out[str(name)] = (num[m, 0], num[m, 1])
+    return out
+
+
+def _photobiology_sources() -> list[_Raw]:
+    meta = json.loads((_PHOTOBIOLOGY / "metadata.json").read_text())
+    spectra = _long_csv(_PHOTOBIOLOGY / "spectra.csv")
+    raws = []
+    for name, (w, v) in spectra.items():
+        hint = meta[name]["hint"]
+        leds = meta[name]["object"] == "leds.mspct"
+        raws.append(
+            _Raw(
+                f"photobiology_{_slug(name)}",
+                name.replace("_", " ") if leds else name.replace(".", " "),
+                "Aphalo2025leds" if leds else "Aphalo2025lamps",
+                "photobiology",
+                _HINT_LEVEL2.get(hint, hint),
+                w,
+                np.clip(v, 0.0, None),
+                subtype=_HINT_SUBTYPE.get(hint),
+            )
+        )
+    return raws
+
+
+def _color_pollution_sources() -> list[_Raw]:
+    meta = json.loads((_COLOR_POLLUTION / "metadata.json").read_text())
+    spectra = _long_csv(_COLOR_POLLUTION / "spectra.csv")
+    raws = []
+    for name, (w, v) in spectra.items():
+        hint = meta[name]["hint"]
+        raws.append(
+            _Raw(
+                f"color_pollution_{_slug(name)}",
+                f"color-pollution {name}",
+                "Robinson2016",
+                "color_pollution",
+                _HINT_LEVEL2.get(hint, hint),
+                w,
+                np.clip(v, 0.0, None),
+                provenance_documented=meta[name]["provenance_documented"],
+                subtype=_HINT_SUBTYPE.get(hint),
+            )
+        )
+    return raws
+
+
+def lspdd_enabled(lspdd: bool | None = None) -> bool:
+    """Whether the LSPDD set is used: the argument, else the environment
+    variable `LSPDD_ENV` ("0", "false", "no", "off" switch it off), else on."""
+    if lspdd is not None:
+        return bool(lspdd)
+    return os.environ.get(LSPDD_ENV, "1").strip().lower() not in (
+        "0",
+        "false",
+        "no",
+        "off",
+    )
+
+
+def _raw_sources(lspdd: bool = True) -> list[_Raw]:
+    raws = _colour_sources() + _li1800_sources()
+    raws += _color_pollution_sources() + _photobiology_sources()
+    if lspdd:
+        raws += _lspdd_sources()
     return raws
 
 
@@ -424,70 +678,184 @@ def _per_lumen(wavelength_nm, values):
     return values / lum
 
 
-@functools.cache
-def _build(extend_nir: bool, grid_key: tuple[float, float, float]) -> LampLibrary:
-    lo, hi, step = grid_key
-    grid = np.arange(lo, hi + step / 2, step)
-    raws = _raw_sources()
+def _colour_metrics(raws: list[_Raw]) -> dict[str, np.ndarray]:
+    """CCT (Ohno 2013), Duv, excitation purity and dominant wavelength (against
+    illuminant E) and the share of visible power below 500 nm, per spectrum,
+    from its 1 nm-interpolated 380-780 nm part (same numbers as `_cct_duv`)."""
+    import colour
 
-    # Typology: phosphor LEDs by CCT; coloured tubes excluded by |Duv|.
-    classified = []
-    for r in raws:
-        cct, duv = _cct_duv(r.wavelength_nm, r.values)
-        excluded = None
-        level2 = r.level2
-        if level2 is None:
-            level2 = "led_warm" if cct <= LED_WARM_MAX_CCT_K else "led_cool"
-        if level2.startswith("fluorescent") and (
-            abs(duv) > COLOURED_DUV or not 1000.0 <= cct <= 25000.0
-        ):
+    grid = np.arange(380.0, 781.0, 1.0)
+    spd = np.array([np.interp(grid, r.wavelength_nm, r.values) for r in raws])
+    cmfs = (
+        colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+        .copy()
+        .trim(colour.SpectralShape(380.0, 780.0, 1.0))
+    )
+    xyz = spd @ cmfs.values
+    uv = colour.UCS_to_uv(colour.XYZ_to_UCS(xyz))
+    xy = colour.XYZ_to_xy(xyz)
+    white = np.array([1.0 / 3.0, 1.0 / 3.0])
+    with warnings.catch_warnings():
+        # Colour warns when the nearest Planckian point is the table's end (the
+        # red TL-D /15, 458 K; amber LEDs): flagged by their CCT range below.
+        warnings.simplefilter("ignore", colour.utilities.ColourRuntimeWarning)
+        cct_duv = np.atleast_2d(colour.temperature.uv_to_CCT_Ohno2013(uv))
+    dom = np.array([float(colour.dominant_wavelength(c, white)[0]) for c in xy])
+    purity = np.array([float(colour.excitation_purity(c, white)) for c in xy])
+    blue = spd[:, grid < 500.0].sum(axis=1) / spd.sum(axis=1)
+    width = (spd >= 0.5 * spd.max(axis=1, keepdims=True)).sum(axis=1) * 1.0
+    return {
+        "cct": cct_duv[:, 0],
+        "duv": cct_duv[:, 1],
+        "purity": purity,
+        "dominant_nm": dom,
+        "blue_share": blue,
+        "width_nm": width,
+    }
+
+
+def _classify(r: _Raw, m: dict) -> tuple[str, str | None, str | None, str | None]:
+    """(level1, level2, subtype, excluded) of one spectrum by the typology rules."""
+    cct, duv = m["cct"], m["duv"]
+    level2, subtype, excluded = r.level2, r.subtype, None
+    white = abs(duv) <= COLOURED_DUV and 1000.0 <= cct <= 25000.0
+    if level2 is None:  # an LED: amber, white (warm/cool) or coloured
+        lo, hi = AMBER_DOMINANT_NM
+        if m["purity"] >= AMBER_MIN_PURITY and lo <= m["dominant_nm"] <= hi:
+            level2 = "led_amber"
+            if m["width_nm"] < DIRECT_AMBER_MAX_WIDTH_NM:
+                subtype = "direct_amber"
+            elif m["blue_share"] >= PC_AMBER_MIN_BLUE:
+                subtype = "pc_amber"
+            else:
+                subtype = "broad_amber"
+        elif not white:
             excluded = (
-                f"coloured tube (|Duv| = {abs(duv):.3f}, CCT = {cct:.0f} K: beyond "
+                f"coloured LED (|Duv| = {abs(duv):.3f}, CCT = {cct:.0f} K: beyond "
                 f"|Duv| <= {COLOURED_DUV} and 1000-25000 K)"
             )
-            level2 = None
-        classified.append((r, level2, excluded))
+            return "led", None, None, excluded
+        else:
+            level2 = "led_warm" if cct <= LED_WARM_MAX_CCT_K else "led_cool"
+    elif level2.startswith("fluorescent") and not white:
+        excluded = (
+            f"coloured tube (|Duv| = {abs(duv):.3f}, CCT = {cct:.0f} K: beyond "
+            f"|Duv| <= {COLOURED_DUV} and 1000-25000 K)"
+        )
+        return "fluorescent", None, None, excluded
+    elif level2 == "hps" and cct >= WHITE_SON_MIN_CCT_K:
+        subtype = "white_son"
+    if r.id in DATASHEET_LIKE:
+        excluded = DATASHEET_LIKE[r.id]
+    return LEVEL2_PARENT[level2], level2, subtype, excluded
 
-    # Near-duplicates across (and within) sources.
+
+DATASHEET_LIKE = {
+    "color_pollution_pc_amber": "datasheet-like curve (Nichia NVSA219B: values to "
+    "4 decimals, 400-800 nm, no instrument): kept for training, not a measured lamp",
+}
+"""Spectra that look like a manufacturer's typical curve, not a measurement:
+in the library, never scored."""
+
+LOW_FILL_MAX = 0.01
+"""A spectrum that starts after 380 nm is filled with 0 below its first sample
+only when that sample is below this fraction of its peak (PC_Amber.csv starts
+at 400 nm at 0.1 % of peak); otherwise the build fails."""
+
+
+def _dedup(raws: list[_Raw]) -> tuple[list[int], dict[int, list[str]], list]:
     order = sorted(
-        range(len(classified)),
-        key=lambda i: SOURCE_PRIORITY.index(classified[i][0].source_set),
+        range(len(raws)),
+        key=lambda i: (
+            SOURCE_PRIORITY.index(raws[i].source_set),
+            not raws[i].provenance_documented,
+        ),
     )
-    shapes = {i: _visible_5nm(raws[i].wavelength_nm, raws[i].values) for i in order}
+    shapes = np.array([_visible_5nm(r.wavelength_nm, r.values) for r in raws])
     kept: list[int] = []
     dup_of: dict[int, list[str]] = {}
     removed = []
     for i in order:
-        match = None
-        for j in kept:
-            a, b = shapes[i], shapes[j]
-            if np.sqrt(np.mean((a - b) ** 2)) < DUPLICATE_RMS * np.mean((a + b) / 2):
-                match = j
-                break
-        if match is None:
+        if kept:
+            ks = shapes[kept]
+            rms = np.sqrt(np.mean((ks - shapes[i]) ** 2, axis=1))
+            lim = DUPLICATE_RMS * np.mean((ks + shapes[i]) / 2, axis=1)
+            hit = np.flatnonzero(rms < lim)
+        else:
+            hit = []
+        if len(hit) == 0:
             kept.append(i)
         else:
-            dup_of.setdefault(match, []).append(raws[i].id)
-            removed.append((raws[i].id, raws[match].id))
+            j = kept[int(hit[0])]
+            dup_of.setdefault(j, []).append(raws[i].id)
+            removed.append((raws[i].id, raws[j].id))
     kept.sort()
+    return kept, dup_of, removed
+
+
+def _nir_note(extended, measured, tech, validated, end_nm):
+    if measured:
+        return f"measured to {end_nm:g} nm"
+    if not extended:
+        return "beyond the measured range: unknown (NaN), extension off"
+    if validated:
+        return (
+            f"extended beyond {end_nm:g} nm ({tech}); the extension of this "
+            "technology is validated leave-one-out on measured spectra"
+        )
+    return (
+        f"extended beyond {end_nm:g} nm ({tech}); no leave-one-out validation on "
+        "measured spectra of this class (see results/library/nir_validation.json)"
+    )
+
+
+@functools.cache
+def _build(
+    extend_nir: bool, grid_key: tuple[float, float, float], lspdd: bool = True
+) -> LampLibrary:
+    lo, hi, step = grid_key
+    grid = np.arange(lo, hi + step / 2, step)
+    raws = _raw_sources(lspdd)
+    metrics = _colour_metrics(raws)
+    classified = [
+        _classify(r, {k: v[i] for k, v in metrics.items()}) for i, r in enumerate(raws)
+    ]
+    kept, dup_of, removed = _dedup(raws)
 
     values, records = [], []
     for i in kept:
-        r, level2, excluded = classified[i]
-        level1 = LEVEL2_PARENT[level2] if level2 else "fluorescent"
+        r = raws[i]
+        level1, level2, subtype, excluded = classified[i]
         w, s = r.wavelength_nm, r.values
-        inside = (grid >= w[0]) & (grid <= w[-1])
+        start, end = float(w[0]), float(w[-1])
         row = np.full(grid.shape, np.nan)
+        inside = (grid >= start) & (grid <= end)
         row[inside] = np.interp(grid[inside], w, s)
-        row[grid < w[0]] = np.nan
-        beyond = grid > w[-1]
-        extended = False
-        validated = None
-        if beyond.any() and extend_nir:
-            tech = nir.technology_of(level2, level1)
+        below = grid < start
+        if below.any():
+            if s[0] > LOW_FILL_MAX * s.max():
+                raise ValueError(
+                    f"{r.id}: spectrum starts at {start:g} nm at "
+                    f"{s[0] / s.max():.1%} of peak; cannot fill 380-{start:g} nm."
+                )
+            row[below] = 0.0
+        beyond = grid > end
+        measured_nir = bool(end >= hi - EDGE_HOLD_NM and hi > nir.EXTENSION_START_NM)
+        extended, validated = False, None
+        tech = nir.technology_of(level2, level1)
+        if beyond.any() and measured_nir:
+            row[beyond] = s[-1]  # hold the last sample over < EDGE_HOLD_NM
+        elif beyond.any() and extend_nir:
             row[beyond] = nir.extend_spectrum(w, s, tech, grid[beyond])
             extended = True
-            validated = nir.VALIDATED.get(tech, False)
+            validated = nir.is_validated(tech) and subtype != "white_son"
+        note = (
+            _nir_note(extended, measured_nir, tech, validated, end)
+            if beyond.any() or measured_nir
+            else ""
+        )
+        if subtype == "white_son" and extended:
+            note += "; White SON (high-CRI HPS): the HPS calibration is standard HPS"
         values.append(_per_lumen(grid, row))
         records.append(
             LampRecord(
@@ -498,13 +866,18 @@ def _build(extend_nir: bool, grid_key: tuple[float, float, float]) -> LampLibrar
                 source=r.source,
                 source_set=r.source_set,
                 unit="W nm-1 lm-1",
-                measured_range_nm=(float(w[0]), float(w[-1])),
+                measured_range_nm=(start, end),
                 extended=extended,
                 extension_validated=validated,
                 modelled=False,
                 cie_typical=r.cie_typical,
                 excluded=excluded,
                 duplicates=tuple(dup_of.get(i, ())),
+                licence=LICENCES[r.source_set],
+                provenance_documented=r.provenance_documented,
+                subtype=subtype,
+                nir_measured=measured_nir,
+                nir_note=note,
             )
         )
 
@@ -538,6 +911,8 @@ def _build(extend_nir: bool, grid_key: tuple[float, float, float]) -> LampLibrar
                 modelled=True,
                 cie_typical=False,
                 excluded=None,
+                licence=LICENCES["planck"],
+                nir_note="modelled (Planck's law)",
             )
         )
 
@@ -550,16 +925,25 @@ def _build(extend_nir: bool, grid_key: tuple[float, float, float]) -> LampLibrar
     )
     values_arr = np.asarray(values)
     values_arr.setflags(write=False)
-    return LampLibrary(grid, values_arr, tuple(records), insufficient, tuple(removed))
+    sets = tuple(dict.fromkeys(r.source_set for r in raws))
+    return LampLibrary(
+        grid, values_arr, tuple(records), insufficient, tuple(removed), sets
+    )
 
 
 def library(
-    *, extend_nir: bool = True, wavelength_nm: Sequence[float] | np.ndarray = GRID_1NM
+    *,
+    extend_nir: bool = True,
+    wavelength_nm: Sequence[float] | np.ndarray = GRID_1NM,
+    lspdd: bool | None = None,
 ) -> LampLibrary:
     """The lamp library on a uniform grid (default 380-900 nm at 1 nm).
 
     `extend_nir=False` leaves values beyond each spectrum's measured range NaN
     (unknown), so a band reaching there fails loudly rather than reading zeros.
+    `lspdd=False` (or the environment variable `BANDOPT_LSPDD=0` when `lspdd`
+    is None) builds it without the LSPDD set (CC BY-NC-ND). Built once per
+    argument set and cached in memory.
     """
     w = np.asarray(wavelength_nm, float)
     step = np.diff(w)
@@ -570,4 +954,8 @@ def library(
             f"wavelength_nm must lie in 380-900 nm (got {w[0]:g}-{w[-1]:g}): no lamp "
             "data exist outside it."
         )
-    return _build(bool(extend_nir), (float(w[0]), float(w[-1]), float(step[0])))
+    return _build(
+        bool(extend_nir),
+        (float(w[0]), float(w[-1]), float(step[0])),
+        lspdd_enabled(lspdd),
+    )

@@ -97,6 +97,11 @@ VALIDATED = {
 """Technologies whose extension is checked against a measurement here."""
 
 
+def is_validated(technology: str | None) -> bool:
+    """The extension of `technology` is validated against measured spectra."""
+    return bool(VALIDATED.get(technology or "", False))
+
+
 def technology_of(level2: str | None, level1: str | None = None) -> str | None:
     """The extension technology for a level-2 class (None: no extension)."""
     if level2 in _TECHNOLOGY:
