@@ -142,7 +142,9 @@ def test_extension_flags_and_switch(lib):
     assert by_id["li1800_osram_super_vialox"].extended is False
     assert by_id["nist_traditional_hps"].extension_validated is True
     assert by_id["nist_traditional_lps"].extension_validated is False
-    assert by_id["cie_led_b1"].extension_validated is False
+    # LEDs: now validated on measured LED tails (LSPDD, photobiology).
+    assert by_id["cie_led_b1"].extension_validated is True
+    assert by_id["nist_traditional_mercury"].extension_validated is False
 
 
 def test_hps_extension_has_sodium_doublet(lib):

@@ -793,8 +793,10 @@ def _dedup(raws: list[_Raw]) -> tuple[list[int], dict[int, list[str]], list]:
     return kept, dup_of, removed
 
 
-def _nir_note(extended, measured, tech, validated, end_nm):
+def _nir_note(extended, measured, tech, validated, end_nm, quality=None):
     if measured:
+        if quality:
+            return f"measured to {end_nm:g} nm; not NIR evidence: {quality}"
         return f"measured to {end_nm:g} nm"
     if not extended:
         return "beyond the measured range: unknown (NaN), extension off"
@@ -810,17 +812,83 @@ def _nir_note(extended, measured, tech, validated, end_nm):
 
 
 @functools.cache
-def _build(
-    extend_nir: bool, grid_key: tuple[float, float, float], lspdd: bool = True
-) -> LampLibrary:
-    lo, hi, step = grid_key
-    grid = np.arange(lo, hi + step / 2, step)
+def _classified(lspdd: bool) -> tuple:
+    """Raw spectra, their classification, and the deduplication (cached)."""
     raws = _raw_sources(lspdd)
     metrics = _colour_metrics(raws)
     classified = [
         _classify(r, {k: v[i] for k, v in metrics.items()}) for i, r in enumerate(raws)
     ]
     kept, dup_of, removed = _dedup(raws)
+    return raws, classified, kept, dup_of, removed
+
+
+NIR_CLIPPED_MAX = 0.2
+NIR_RISING_EDGE = 2.0
+
+
+def nir_quality(wavelength_nm: np.ndarray, values: np.ndarray) -> str | None:
+    """Why a spectrum measured to 900 nm cannot serve as near-infrared evidence,
+    or None. Two screens, both seen in LSPDD records:
+
+    - *clipped*: more than `NIR_CLIPPED_MAX` of its 700-900 nm samples are
+      exactly 0 (background subtracted and clipped: a real tail and a clipped
+      one cannot be told apart);
+    - *rising edge*: the 850-900 nm median exceeds `NIR_RISING_EDGE` times the
+      800-850 nm median and 0.5 % of peak (a detector edge artefact: no lamp
+      class here rises that fast; a 2800 K Planck spectrum rises 1.05x).
+    """
+    w, s = np.asarray(wavelength_nm, float), np.asarray(values, float)
+    tail = (w >= 700.0) & (w <= 900.0)
+    zero = float(np.mean(s[tail] == 0.0))
+    if zero > NIR_CLIPPED_MAX:
+        return f"clipped ({zero:.0%} of the 700-900 nm samples are 0)"
+    hi = float(np.median(s[(w >= 850.0) & (w <= 900.0)]))
+    mid = float(np.median(s[(w >= 800.0) & (w < 850.0)]))
+    if hi > NIR_RISING_EDGE * mid and hi > 0.005 * s.max():
+        return (
+            f"rising edge (850-900 nm median {hi / s.max():.1%} of peak, "
+            f"{hi / max(mid, 1e-300):.1f}x the 800-850 nm median)"
+        )
+    return None
+
+
+def measured_nir_spectra(lspdd: bool | None = None) -> list[dict]:
+    """The library's distinct lamps measured to 900 nm (within `EDGE_HOLD_NM`),
+    not excluded, on their native wavelengths: the calibration and validation
+    set of `bandopt.datasets.nir` (`nir_quality` None only; the others are
+    returned with their reason, for the record). Each: id, level1, level2,
+    subtype, technology, source_set, nir_quality, wavelength_nm, values."""
+    raws, classified, kept, _, _ = _classified(lspdd_enabled(lspdd))
+    out = []
+    for i in kept:
+        r = raws[i]
+        level1, level2, subtype, excluded = classified[i]
+        if excluded or r.wavelength_nm[-1] < nir.EXTENSION_END_NM - EDGE_HOLD_NM:
+            continue
+        out.append(
+            {
+                "id": r.id,
+                "level1": level1,
+                "level2": level2,
+                "subtype": subtype,
+                "technology": nir.technology_of(level2, level1),
+                "source_set": r.source_set,
+                "nir_quality": nir_quality(r.wavelength_nm, r.values),
+                "wavelength_nm": r.wavelength_nm,
+                "values": r.values,
+            }
+        )
+    return out
+
+
+@functools.cache
+def _build(
+    extend_nir: bool, grid_key: tuple[float, float, float], lspdd: bool = True
+) -> LampLibrary:
+    lo, hi, step = grid_key
+    grid = np.arange(lo, hi + step / 2, step)
+    raws, classified, kept, dup_of, removed = _classified(lspdd)
 
     values, records = [], []
     for i in kept:
@@ -846,11 +914,12 @@ def _build(
         if beyond.any() and measured_nir:
             row[beyond] = s[-1]  # hold the last sample over < EDGE_HOLD_NM
         elif beyond.any() and extend_nir:
-            row[beyond] = nir.extend_spectrum(w, s, tech, grid[beyond])
+            row[beyond] = nir.extend_spectrum(w, s, tech, grid[beyond], lspdd=lspdd)
             extended = True
             validated = nir.is_validated(tech) and subtype != "white_son"
+        quality = nir_quality(w, s) if measured_nir else None
         note = (
-            _nir_note(extended, measured_nir, tech, validated, end)
+            _nir_note(extended, measured_nir, tech, validated, end, quality)
             if beyond.any() or measured_nir
             else ""
         )

@@ -1,78 +1,83 @@
-"""Near-infrared extension of lamp spectra from 780 nm to 900 nm.
+"""Near-infrared extension of lamp spectra measured only to 780-850 nm, up to 900 nm.
 
 colour-science's lamp spectra stop at 780 nm, yet sodium and metal halide lamps
 emit strongly at 819 nm, fluorescent tubes have argon/krypton lines there, and
-satellite bands reach 900 nm. This module extends a spectrum by its technology,
-with a physical model per technology:
+satellite bands reach 900 nm. This module extends a spectrum beyond its
+measured end by its technology, with a physical model per technology, and
+calibrates and validates each model on the lamps of the library that *are*
+measured to 900 nm (LI-1800 `Aphalo2023`, LSPDD `LSPDD2016`, photobiology
+`Aphalo2025lamps`/`Aphalo2025leds`, color-pollution `Robinson2016`; see
+`bandopt.datasets.lamps.measured_nir_spectra`):
 
-- **Discharge lamps** (`hps`, `metal_halide`, `fluorescent_*`, `lps`):
-  emission lines at their NIST air wavelengths (`NISTASD`) with a Gaussian
-  instrument profile, plus a linear continuum. Line strengths and continuum are
-  stored *per unit visible power* `P_vis = ∫_380^780 S dλ` and calibrated by
-  non-negative least squares on the LI-1800 spectra of the same technology
-  (`Aphalo2023`), which are measured to 900 nm.
+- **Discharge lamps** (`hps`, `lps`, `metal_halide`, `fluorescent`): emission
+  lines at their NIST air wavelengths (`NISTASD`) with a Gaussian profile of
+  fitted FWHM, plus a linear continuum. The Na I 818.33/819.48 nm doublet is
+  one column with the LS-coupling multiplet strengths 1 : 2 (3p 2P - 3d 2D,
+  strengths 5 : 9 + 1), so the fit cannot move its power to one line or to a
+  neighbouring line; in high-pressure lamps (`hps`, `metal_halide`) the
+  pressure-broadened doublet has a second, Lorentzian column (its wings), with
+  the half width fitted. No Xe line is modelled for HPS: none is resolved above
+  the broadened Na wing in the two measured HPS spectra (the former "Xe 823.2
+  nm" line absorbed that wing). Line strengths and continuum are *per unit
+  visible power* `P_vis = ∫_380^780 S dλ` and are the median over the
+  calibration lamps of their non-negative least-squares fits.
+- **Mercury**: continuum only (no Hg I line lies in 780-900 nm), per unit
+  visible power, calibrated on the one measured mercury lamp (color-pollution
+  HgV, to 930 nm: NIR/visible 0.057). The former flat copy of the 770-780 nm
+  level carried a data artefact (a plateau at 8.5-11 % of peak in two Philips
+  spectra) to 900 nm, giving NIR/visible 0.31-0.36.
 - **Incandescent**: Planck's law (`Planck1901`) with the temperature fitted to
-  the lamp's own 600-780 nm shape, scaled to its 760-780 nm level.
-- **LED**: the phosphor tail continued as the exponential fitted to 740-780 nm,
-  set to zero below 1e-4 of the peak ("zero beyond the phosphor tail").
-- **Mercury**: flat continuation of the 770-780 nm continuum (no measured
-  mercury lamp reaches 900 nm here).
+  the lamp's own 600 nm-to-end shape, scaled to its last 20 nm.
+- **LED**: the phosphor tail continued as the exponential fitted to the last
+  40 nm, *anchored at the measured end* (continuous there), with the decay
+  rate at least `LED_MIN_DECAY_PER_NM`. Direct (phosphor-free) amber LEDs have
+  ~0 there and get ~0. The former version kept the intercept fitted at λ = 0
+  with a clamped slope, which dropped 11 of 24 LED tails to 0 at 781 nm.
 
-Validation (`validate_extension`): cut each LI-1800 spectrum at 780 nm, extend
-it, and compare band radiances beyond 780 nm with the measurement. Fluorescents
-are calibrated leave-one-out; HPS, metal halide and incandescent have one
-measured lamp each, so their check is in-sample (it tests the model's form, not
-its transfer to other lamps). Low-pressure sodium, mercury and LEDs have no
-measurement beyond 780 nm here: their extensions are marked unvalidated.
+`VALIDATED`: a technology's extension is validated when it has at least two
+measured lamps, so that it can be checked leave-one-out (`validate_extension`,
+published in `results/library/nir_validation.json`). LPS and mercury have one
+measured lamp each (calibrated in-sample, not validated); White SON (high-CRI
+HPS) has none (the library never flags it validated).
 """
 
 import dataclasses
 import functools
-from pathlib import Path
 
 import numpy as np
 from scipy.optimize import nnls
 
-from .loaders import read_prn
 
-
-_DATA = Path(__file__).parent / "data" / "lamps_li1800"
 EXTENSION_START_NM = 780.0
 EXTENSION_END_NM = 900.0
 
 # NIST ASD air wavelengths [nm] of the lines between 780 and 900 nm per technology.
 NA_I = (818.33, 819.48)
+NA_DOUBLET_WEIGHTS = (1.0 / 3.0, 2.0 / 3.0)
 XE_I = (823.16, 828.01, 881.94, 895.22)
 AR_I = (794.82, 800.62, 801.48, 810.37, 811.53, 826.45, 840.82, 842.46, 852.14, 866.79)
 KR_I = (785.48, 805.95, 810.44, 811.29, 819.01, 826.32, 829.81, 850.89, 877.68, 892.87)
 
 LINES_NM: dict[str, tuple[float, ...]] = {
-    "hps": NA_I + XE_I,
+    "hps": NA_I,
     "lps": NA_I,
     "metal_halide": NA_I + AR_I,
     "fluorescent": AR_I + KR_I,
+    "mercury": (),
 }
-"""Lines modelled per technology: Na I doublet (HPS, LPS, metal halide), Xe I
-(HPS starting gas), Ar I and Kr I (fill gases of fluorescent tubes and metal
-halide arc tubes)."""
+"""Lines modelled per technology: the Na I doublet (HPS, LPS, metal halide, as
+one tied column), Ar I (fill gas of metal halide arc tubes and fluorescent
+tubes) and Kr I (fluorescent tubes). Mercury: continuum only."""
 
-CALIBRATION_FILES: dict[str, tuple[str, ...]] = {
-    "hps": ("Osram.Super.Vialox",),
-    "metal_halide": ("Osram.HQIT.400W",),
-    "fluorescent": (
-        "Osram.36W.25",
-        "Philips.PLS11W.827",
-        "Philips.TLD36W.83",
-        "Philips.TLD36W.865",
-        "Philips.TLD36W.89",
-        "Philips.TLD36W.92",
-        "Philips.TLL36W.950",
-        "Sylvania.215W.VHO",
-    ),
-    "incandescent": ("Incandescent.60W",),
-}
-"""LI-1800 files used to calibrate each technology. The coloured tubes
-(TLD 36W/15 red, /18 blue) are left out: their phosphors are not typical."""
+BROADENED_NA = ("hps", "metal_halide")
+"""Technologies whose Na doublet gets a Lorentzian wing column (high pressure)."""
+
+FWHM_SCAN_NM = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 10.0)
+LORENTZ_HWHM_SCAN_NM = (1.0, 2.0, 4.0, 8.0, 16.0)
+LED_FIT_SPAN_NM = 40.0
+LED_MIN_DECAY_PER_NM = 1.0 / 200.0
+"""The LED tail decays at least this fast (a tail never rises; a 200 nm
+e-folding is slower than any clean measured LED tail here, 25-45 nm). [nm⁻¹]"""
 
 _TECHNOLOGY = {
     "hps": "hps",
@@ -87,14 +92,28 @@ _TECHNOLOGY = {
     "led_amber": "led",
     "led_rgb": "led",
 }
+TECHNOLOGIES = (
+    "hps",
+    "lps",
+    "metal_halide",
+    "mercury",
+    "fluorescent",
+    "incandescent",
+    "led",
+)
 
 VALIDATED = {
     "hps": True,
     "metal_halide": True,
     "fluorescent": True,
     "incandescent": True,
+    "led": True,
+    "lps": False,
+    "mercury": False,
 }
-"""Technologies whose extension is checked against a measurement here."""
+"""Technologies whose extension is validated leave-one-out against at least two
+measured lamps (`validate_extension`); the counts are in
+`results/library/nir_validation.json` and checked by `tests/test_nir.py`."""
 
 
 def is_validated(technology: str | None) -> bool:
@@ -103,13 +122,15 @@ def is_validated(technology: str | None) -> bool:
 
 
 def technology_of(level2: str | None, level1: str | None = None) -> str | None:
-    """The extension technology for a level-2 class (None: no extension)."""
+    """The extension technology for a level-2 class (None: no extension). Every
+    LED class, amber included, is `led`: an amber LED is never given sodium lines."""
     if level2 in _TECHNOLOGY:
         return _TECHNOLOGY[level2]
     return {
         "fluorescent": "fluorescent",
         "led": "led",
         "incandescent": "incandescent",
+        "lps": "lps",
     }.get(level1 or "")
 
 
@@ -119,12 +140,40 @@ def _gauss(x_nm, centres_nm, fwhm_nm):
     return np.exp(-0.5 * z**2) / (sigma * np.sqrt(2.0 * np.pi))  # unit area [nm-1]
 
 
-def _design(x_nm, lines_nm, fwhm_nm):
+def _lorentz(x_nm, centres_nm, hwhm_nm):
+    z = x_nm[:, None] - np.asarray(centres_nm)[None, :]
+    return hwhm_nm / np.pi / (z**2 + hwhm_nm**2)  # unit area over the real line
+
+
+def _design(x_nm, technology, fwhm_nm, hwhm_nm=None):
+    """Columns: [Na doublet (Gaussian), Na doublet (Lorentzian wing)?, other lines
+    (Gaussian), continuum c0, continuum c1 (900 - λ)/120]."""
+    x_nm = np.asarray(x_nm, float)
+    lines = LINES_NM[technology]
+    cols = []
+    rest = tuple(x for x in lines if x not in NA_I)
+    if any(x in NA_I for x in lines):
+        cols.append(_gauss(x_nm, NA_I, fwhm_nm) @ np.array(NA_DOUBLET_WEIGHTS))
+        if technology in BROADENED_NA:
+            cols.append(_lorentz(x_nm, NA_I, hwhm_nm) @ np.array(NA_DOUBLET_WEIGHTS))
+    if rest:
+        cols.extend(_gauss(x_nm, rest, fwhm_nm).T)
     span = EXTENSION_END_NM - EXTENSION_START_NM
-    cont = np.stack([np.ones_like(x_nm), (EXTENSION_END_NM - x_nm) / span], axis=1)
-    if not lines_nm:
-        return cont
-    return np.concatenate([_gauss(x_nm, lines_nm, fwhm_nm), cont], axis=1)
+    cols.append(np.ones_like(x_nm))
+    cols.append((EXTENSION_END_NM - x_nm) / span)
+    return np.stack(cols, axis=1)
+
+
+def column_names(technology: str) -> list[str]:
+    """Names of the columns of the line model of `technology`."""
+    lines = LINES_NM[technology]
+    names = []
+    if any(x in NA_I for x in lines):
+        names.append("Na I 818.33+819.48 (1:2)")
+        if technology in BROADENED_NA:
+            names.append("Na I doublet Lorentzian wing")
+    names += [f"{x:.2f}" for x in lines if x not in NA_I]
+    return [*names, "continuum c0", "continuum c1"]
 
 
 def _visible_power(w, s):
@@ -136,74 +185,116 @@ def _visible_power(w, s):
 class LineCalibration:
     """Line and continuum coefficients per unit visible power for a technology.
 
-    - `lines_nm`: line wavelengths. [nm]
-    - `strength`: integrated line power / P_vis, per line. [1]
-    - `continuum`: (c0, c1) of `c0 + c1 (900 - λ)/120`, per P_vis. [nm⁻¹]
-    - `fwhm_nm`: Gaussian instrument profile fitted to the LI-1800 data. [nm]
-    - `files`: calibration spectra.
+    - `technology`: the technology.
+    - `coef`: one coefficient per column of `column_names(technology)`: line
+      powers / P_vis [1], continuum per P_vis [nm⁻¹].
+    - `fwhm_nm`: Gaussian line FWHM. [nm]
+    - `hwhm_nm`: Lorentzian half width of the broadened Na doublet (or None). [nm]
+    - `files`: ids of the calibration spectra.
     """
 
-    lines_nm: tuple[float, ...]
-    strength: np.ndarray
-    continuum: np.ndarray
+    technology: str
+    coef: np.ndarray
     fwhm_nm: float
+    hwhm_nm: float | None
     files: tuple[str, ...]
 
+    @property
+    def lines_nm(self) -> tuple[float, ...]:
+        return LINES_NM[self.technology]
+
+    @property
+    def strength(self) -> np.ndarray:
+        """Line-column coefficients (everything but the continuum). [1]"""
+        return self.coef[:-2]
+
+    @property
+    def continuum(self) -> np.ndarray:
+        return self.coef[-2:]
+
     def evaluate(self, wavelength_nm: np.ndarray, visible_power: float) -> np.ndarray:
-        coef = np.concatenate([self.strength, self.continuum])
-        return (
-            visible_power * _design(wavelength_nm, self.lines_nm, self.fwhm_nm) @ coef
-        )
+        d = _design(wavelength_nm, self.technology, self.fwhm_nm, self.hwhm_nm)
+        return visible_power * d @ self.coef
 
 
-def _fit_lines(spectra, lines_nm):
-    """NNLS fit of lines + continuum over 780-900 nm, scanning the profile FWHM."""
-    best = None
-    for fwhm in np.arange(3.0, 12.01, 0.5):
-        coefs, resid = [], 0.0
-        for w, s in spectra:
-            m = (w > EXTENSION_START_NM) & (w <= EXTENSION_END_NM)
-            p_vis = _visible_power(w, s)
-            coef, r = nnls(_design(w[m], lines_nm, fwhm), s[m] / p_vis)
-            coefs.append(coef)
-            resid += r**2
-        if best is None or resid < best[0]:
-            best = (resid, fwhm, np.mean(coefs, axis=0))
-    _, fwhm, coef = best
-    n = len(lines_nm)
-    return float(fwhm), coef[:n], coef[n:]
+def calibration_spectra(technology: str, lspdd: bool = True) -> list[tuple]:
+    """(id, wavelength [nm], values) of the library's lamps of `technology`
+    measured to 900 nm (White SON, excluded lamps and spectra failing
+    `lamps.nir_quality` left out)."""
+    from .lamps import measured_nir_spectra
 
-
-def _li1800(name):
-    s = read_prn(_DATA / f"{name}.PRN")
-    return s.wavelength_nm, s.values
+    return [
+        (m["id"], m["wavelength_nm"], m["values"])
+        for m in measured_nir_spectra(lspdd)
+        if m["technology"] == technology
+        and m["subtype"] != "white_son"
+        and m["nir_quality"] is None
+    ]
 
 
 @functools.cache
-def calibration(technology: str, exclude: tuple[str, ...] = ()) -> LineCalibration:
-    """Fit the line model of a discharge technology on its LI-1800 spectra.
+def _per_lamp_fits(technology: str, lspdd: bool) -> tuple:
+    """NNLS fits of every calibration spectrum at every profile width.
 
-    `lps` borrows the Na I doublet strength of `hps` (no measured LPS spectrum
-    reaches 900 nm here: unvalidated). `exclude` leaves files out (for
-    leave-one-out validation).
+    Returns (ids, widths, coefs [n_width, n_lamp, n_col], relative residuals
+    [n_width, n_lamp], measured 780-900 nm power per visible power [n_lamp])."""
+    spectra = calibration_spectra(technology, lspdd)
+    if not spectra:
+        raise ValueError(f"No measured NIR spectrum for technology {technology!r}.")
+    hw = LORENTZ_HWHM_SCAN_NM if technology in BROADENED_NA else (None,)
+    widths = [(f, h) for f in FWHM_SCAN_NM for h in hw]
+    coefs, resid = [], []
+    ratio = []
+    for _, w, s in spectra:
+        m = (w >= EXTENSION_START_NM) & (w <= EXTENSION_END_NM)
+        ratio.append(np.trapezoid(s[m], w[m]) / _visible_power(w, s))
+    for fwhm, hwhm in widths:
+        c_row, r_row = [], []
+        for _, w, s in spectra:
+            m = (w > EXTENSION_START_NM) & (w <= EXTENSION_END_NM)
+            y = s[m] / _visible_power(w, s)
+            coef, r = nnls(_design(w[m], technology, fwhm, hwhm), y)
+            c_row.append(coef)
+            r_row.append(r**2 / max(float(y @ y), 1e-300))
+        coefs.append(c_row)
+        resid.append(r_row)
+    ids = tuple(x[0] for x in spectra)
+    return ids, widths, np.array(coefs), np.array(resid), np.array(ratio)
+
+
+@functools.cache
+def calibration(
+    technology: str, exclude: tuple[str, ...] = (), lspdd: bool = True
+) -> LineCalibration:
+    """The line model of a discharge technology (or mercury's continuum),
+    calibrated on the library's lamps measured to 900 nm.
+
+    The profile widths minimise the summed relative residual over the
+    calibration lamps; the coefficients are their mean (the fit of the mean
+    spectrum per visible power: the median of sparse line coefficients was
+    near zero for fluorescents, whose lamps put power on different lines),
+    scaled by median / mean of the lamps' measured 780-900 nm power per visible
+    power, so the level is the median lamp's. `exclude` leaves lamp
+    ids out (leave-one-out validation); `lspdd=False` calibrates without the
+    LSPDD set.
     """
-    if technology == "lps":
-        hps = calibration("hps", exclude)
-        na = np.array([hps.lines_nm.index(x) for x in NA_I])
-        return LineCalibration(
-            NA_I, hps.strength[na], np.zeros(2), hps.fwhm_nm, hps.files
-        )
     if technology not in LINES_NM:
         raise ValueError(
             f"No line model for technology {technology!r}; expected one of "
-            f"{sorted([*LINES_NM])}."
+            f"{sorted(LINES_NM)}."
         )
-    files = tuple(f for f in CALIBRATION_FILES[technology] if f not in exclude)
-    if not files:
+    ids, widths, coefs, resid, ratio = _per_lamp_fits(technology, lspdd)
+    keep = np.array([i not in exclude for i in ids])
+    if not keep.any():
         raise ValueError(f"No calibration spectrum left for {technology!r}.")
-    spectra = [_li1800(f) for f in files]
-    fwhm, strength, cont = _fit_lines(spectra, LINES_NM[technology])
-    return LineCalibration(LINES_NM[technology], strength, cont, fwhm, files)
+    k = int(np.argmin(resid[:, keep].sum(axis=1)))
+    fwhm, hwhm = widths[k]
+    coef = np.mean(coefs[k][keep], axis=0)
+    # Level: the median lamp's NIR/visible, not the mean (one warming-up CFL
+    # with argon lines at 0.6 of peak would set the mean).
+    coef = coef * np.median(ratio[keep]) / np.mean(ratio[keep])
+    files = tuple(i for i, m in zip(ids, keep, strict=True) if m)
+    return LineCalibration(technology, coef, float(fwhm), hwhm, files)
 
 
 def _planck(wavelength_nm, temperature_k):
@@ -212,33 +303,27 @@ def _planck(wavelength_nm, temperature_k):
 
 
 def _extend_planck(w, s, w_new):
-    m = (w >= 600.0) & (w <= 780.0) & (s > 0)
+    end = w[-1]
+    m = (w >= 600.0) & (w <= end) & (s > 0)
     temps = np.arange(1500.0, 4000.1, 10.0)
     logs = np.log(s[m])
-    errs = []
-    for t in temps:
-        r = logs - np.log(_planck(w[m], t))
-        errs.append(np.var(r))
+    errs = [np.var(logs - np.log(_planck(w[m], t))) for t in temps]
     t_fit = temps[int(np.argmin(errs))]
-    tail = (w >= 760.0) & (w <= 780.0)
+    tail = (w >= end - 20.0) & (w <= end)
     scale = np.mean(s[tail]) / np.mean(_planck(w[tail], t_fit))
     return scale * _planck(w_new, t_fit)
 
 
 def _extend_led(w, s, w_new):
-    m = (w >= 740.0) & (w <= 780.0) & (s > 0)
-    peak = float(s.max())
-    if m.sum() < 3:
+    """Exponential tail anchored at the measured end w[-1]: continuous there."""
+    end = w[-1]
+    m = (w >= end - LED_FIT_SPAN_NM) & (w <= end) & (s > 0)
+    anchor = float(np.interp(end, w, s))
+    if m.sum() < 3 or anchor <= 0.0:
         return np.zeros_like(w_new)
-    slope, intercept = np.polyfit(w[m], np.log(s[m]), 1)
-    slope = min(slope, -1.0 / 20.0)  # a tail never rises: at most a 20 nm e-fold
-    out = np.exp(intercept + slope * w_new)
-    return np.where(out >= 1e-4 * peak, out, 0.0)
-
-
-def _extend_flat(w, s, w_new):
-    m = (w >= 770.0) & (w <= 780.0)
-    return np.full_like(w_new, float(np.min(s[m])))
+    slope = float(np.polyfit(w[m] - end, np.log(s[m]), 1)[0])
+    slope = min(slope, -LED_MIN_DECAY_PER_NM)
+    return anchor * np.exp(slope * (w_new - end))
 
 
 def extend_spectrum(
@@ -248,34 +333,40 @@ def extend_spectrum(
     new_wavelength_nm: np.ndarray,
     *,
     exclude: tuple[str, ...] = (),
+    lspdd: bool = True,
 ) -> np.ndarray:
-    """Model a spectrum at `new_wavelength_nm` (all > 780 nm) from its 380-780 nm part.
+    """Model a spectrum at `new_wavelength_nm` (all > 780 nm and beyond the
+    measured end) from its measured part (which must reach 780 nm; the visible
+    power of the line models is its 380-780 nm integral).
 
-    `technology` is one of `hps`, `lps`, `metal_halide`, `fluorescent`,
-    `incandescent`, `led`, `mercury` (see `technology_of`). [unit of `values`]
+    `technology` is one of `TECHNOLOGIES` (see `technology_of`). `exclude` and
+    `lspdd` select the calibration lamps (see `calibration`). [unit of `values`]
     """
     w = np.asarray(wavelength_nm, float)
     s = np.asarray(values, float)
     w_new = np.asarray(new_wavelength_nm, float)
     if np.any(w_new <= EXTENSION_START_NM) or np.any(w_new > EXTENSION_END_NM):
         raise ValueError("new_wavelength_nm must lie in (780, 900] nm.")
-    if technology in LINES_NM or technology == "lps":
-        return calibration(technology, exclude).evaluate(w_new, _visible_power(w, s))
+    if w[-1] < EXTENSION_START_NM or np.any(w_new <= w[-1]):
+        raise ValueError(
+            f"the measured spectrum ({w[0]:g}-{w[-1]:g} nm) must reach 780 nm and "
+            "end before new_wavelength_nm."
+        )
+    if technology in LINES_NM:
+        cal = calibration(technology, tuple(exclude), lspdd)
+        return cal.evaluate(w_new, _visible_power(w, s))
     if technology == "incandescent":
         return _extend_planck(w, s, w_new)
     if technology == "led":
         return _extend_led(w, s, w_new)
-    if technology == "mercury":
-        return _extend_flat(w, s, w_new)
     raise ValueError(
-        f"Unknown technology {technology!r}; expected one of "
-        "['fluorescent', 'hps', 'incandescent', 'led', 'lps', 'mercury', "
-        "'metal_halide']."
+        f"Unknown technology {technology!r}; expected one of {sorted(TECHNOLOGIES)}."
     )
 
 
 VALIDATION_BANDS_NM: dict[str, tuple[float, float]] = {
     "780-900": (780.0, 900.0),
+    "780-800": (780.0, 800.0),
     "800-840": (800.0, 840.0),
     "840-900": (840.0, 900.0),
     "500-900": (500.0, 900.0),
@@ -283,36 +374,58 @@ VALIDATION_BANDS_NM: dict[str, tuple[float, float]] = {
 """Boxcar bands used to validate the extension (band-integrated power)."""
 
 
-def validate_extension() -> list[dict]:
-    """Compare extended and measured band powers for every calibration spectrum.
+def validate_extension(lspdd: bool = True) -> list[dict]:
+    """Leave-one-out check on every lamp of the library measured to 900 nm.
 
-    Each row: file, technology, whether the check is leave-one-out, and per band
-    the measured and extended band-integrated power and their relative error.
+    Spectra failing `lamps.nir_quality` (clipped or edge-artefact NIR) are
+    skipped. Each spectrum is cut at 780 nm and extended by its technology, calibrated
+    without it (the line models and mercury; LED and incandescent tails use the
+    lamp's own visible part only), and the band powers beyond 780 nm are
+    compared with the measurement. Each row: id, level 2, subtype, technology,
+    source set, whether the check is leave-one-out (False when the technology
+    has a single measured lamp: then the check is in-sample), and per band the
+    measured and extended band-integrated power and their relative error.
     """
+    from .lamps import measured_nir_spectra
+
+    grid = np.arange(380.0, 900.01, 1.0)
+    vis = grid <= EXTENSION_START_NM
     rows = []
-    for tech, files in CALIBRATION_FILES.items():
-        for f in files:
-            w, s = _li1800(f)
-            loo = tech == "fluorescent"
-            exclude = (f,) if loo else ()
-            grid = np.arange(380.0, 900.01, 1.0)
-            s1 = np.interp(grid, w, s)
-            vis = grid <= EXTENSION_START_NM
-            ext = s1.copy()
-            ext[~vis] = extend_spectrum(
-                grid[vis], s1[vis], tech, grid[~vis], exclude=exclude
-            )
-            bands = {}
-            for name, (lo, hi) in VALIDATION_BANDS_NM.items():
-                m = (grid >= lo) & (grid <= hi)
-                true = float(np.trapezoid(s1[m], grid[m]))
-                est = float(np.trapezoid(ext[m], grid[m]))
-                bands[name] = {
-                    "measured": true,
-                    "extended": est,
-                    "rel_error": est / true - 1,
-                }
-            rows.append(
-                {"file": f, "technology": tech, "leave_one_out": loo, "bands": bands}
-            )
+    for m in measured_nir_spectra(lspdd):
+        tech = m["technology"]
+        if tech is None or m["subtype"] == "white_son" or m["nir_quality"]:
+            continue
+        s1 = np.interp(grid, m["wavelength_nm"], m["values"])
+        exclude = ()
+        loo = True
+        if tech in LINES_NM:
+            ids = _per_lamp_fits(tech, lspdd)[0]
+            loo = len(ids) > 1
+            exclude = (m["id"],) if loo else ()
+        ext = s1.copy()
+        ext[~vis] = extend_spectrum(
+            grid[vis], s1[vis], tech, grid[~vis], exclude=exclude, lspdd=lspdd
+        )
+        p_vis = float(np.trapezoid(s1[vis], grid[vis]))
+        bands = {}
+        for name, (lo, hi) in VALIDATION_BANDS_NM.items():
+            b = (grid >= lo) & (grid <= hi)
+            true = float(np.trapezoid(s1[b], grid[b]))
+            est = float(np.trapezoid(ext[b], grid[b]))
+            bands[name] = {
+                "measured": true / p_vis,
+                "extended": est / p_vis,
+                "rel_error": est / true - 1 if true > 0 else None,
+            }
+        rows.append(
+            {
+                "id": m["id"],
+                "level2": m["level2"],
+                "subtype": m["subtype"],
+                "technology": tech,
+                "source_set": m["source_set"],
+                "leave_one_out": loo,
+                "bands": bands,
+            }
+        )
     return rows
