@@ -58,15 +58,22 @@ def data_versions() -> dict:
 
 
 def lamp_library_info() -> dict:
-    """Whether the lamp spectra used carry the near-infrared extension."""
+    """Which lamp sets the library was built from (spectra per set; the LSPDD
+    is switchable) and whether the spectra carry the near-infrared extension."""
     from .datasets.lamps import library
 
     lib = library()  # every experiment uses the default: extension on
     extended = [r for r in lib.records if r.extended]
+    sets: dict[str, int] = {}
+    for r in lib.records:
+        sets[r.source_set] = sets.get(r.source_set, 0) + 1
     return {
         "nir_extension": "on: spectra measured only to 780 nm are extended to 900 nm "
         "by bandopt.datasets.nir (switch: library(extend_nir=False))",
+        "source_sets": sets,
+        "lspdd": "lspdd" in lib.source_sets,
         "spectra": len(lib.records),
+        "nir_measured_spectra": sum(r.nir_measured for r in lib.records),
         "extended_spectra": len(extended),
         "extended_unvalidated": sorted(
             r.id for r in extended if not r.extension_validated

@@ -1,5 +1,7 @@
 """The lamp library: counts, typology, deduplication, units, NIR extension flags."""
 
+import re
+
 import colour
 import numpy as np
 import pytest
@@ -193,3 +195,144 @@ def test_bad_grid_rejected():
         library(wavelength_nm=np.arange(300.0, 901.0, 1.0))
     with pytest.raises(ValueError, match="uniform"):
         library(wavelength_nm=np.array([380.0, 381.0, 390.0]))
+
+
+def test_new_sets_present_with_their_ids(lib):
+    by_id = {r.id: r for r in lib.records}
+    lspdd = [r for r in lib.records if r.source_set == "lspdd"]
+    assert len(lspdd) >= 150
+    assert all(re.fullmatch(r"lspdd_\d+", r.id) for r in lspdd)
+    # The LSPDD record number is kept: 2608 is the Philips RoadStar road
+    # luminaire (4100 K), a cool LED measured to 899.5 nm, not extended.
+    road = by_id["lspdd_2608"]
+    assert "RoadStar" in road.name and road.level2 == "led_cool"
+    assert road.nir_measured and not road.extended and road.licence.startswith("CC")
+    assert by_id["lspdd_2481"].level2 == "metal_halide"
+    assert by_id["photobiology_epileds_3w_590nm"].subtype == "direct_amber"
+    assert by_id["color_pollution_philips_amber_pc_led"].subtype == "pc_amber"
+    assert by_id["color_pollution_lps"].provenance_documented is False
+    assert by_id["color_pollution_philips_amber_pc_led"].provenance_documented
+    # The 13 LI-1800 lamps of the photobiology data are not taken twice.
+    assert not any(
+        "licor" in r.id or "vialox" in r.id
+        for r in lib.records
+        if r.source_set == "photobiology"
+    )
+
+
+def test_measured_to_900_nm_never_extended(lib):
+    for r in lib.records:
+        if r.source_set in ("lspdd", "photobiology", "color_pollution"):
+            if r.measured_range_nm[1] >= 900.0 - lamps.EDGE_HOLD_NM:
+                assert r.nir_measured and not r.extended, r.id
+
+
+def test_library_builds_without_lspdd(monkeypatch):
+    off = library(lspdd=False)
+    assert not any(r.id.startswith("lspdd_") for r in off.records)
+    assert "lspdd" not in off.source_sets and len(off) < len(library())
+    monkeypatch.setenv(lamps.LSPDD_ENV, "0")
+    assert library().ids == off.ids
+    monkeypatch.setenv(lamps.LSPDD_ENV, "1")
+    assert any(i.startswith("lspdd_") for i in library().ids)
+
+
+def test_lspdd_vendored_verbatim(shared_dir):
+    vendored = sorted((lamps._LSPDD).glob("*.json"))
+    assert len(vendored) >= 150
+    for p in vendored:
+        src = shared_dir / "data" / "lamps_lspdd" / p.name
+        assert p.read_bytes() == src.read_bytes(), p.name
+
+
+def test_lspdd_parser_handles_every_layout():
+    text = "wavelength,relativeIntensity\n273.5,0,00E+00\r\n 300.00,1.3620E-005\r\n"
+    text += "301,-0.000006\n,\n:5\n\n302,2.5E-01\n" + "".join(
+        f"{400 + i},{i / 100:.4f}\n" for i in range(60)
+    )
+    w, v = lamps.parse_lspdd_spectrum(text)
+    assert w[:4].tolist() == [273.5, 300.0, 301.0, 302.0]
+    assert v[:4].tolist() == [0.0, 1.362e-5, 0.0, 0.25]
+    with pytest.raises(ValueError, match="header"):
+        lamps.parse_lspdd_spectrum("300,1\n")
+
+
+def test_scored_classes_have_three_distinct_measured_lamps(lib):
+    for c in lib.counts():
+        if c["status"] == "scored":
+            assert c["lamps"] >= lamps.MIN_LAMPS_FOR_SCORING, c
+            assert c["lamps"] - c["cie_typical"] >= lamps.MIN_LAMPS_FOR_SCORING, c
+    status = {c["level2"]: c["status"] for c in lib.counts()}
+    assert status["led_amber"] == "scored"
+    # Only two distinct measured LPS lamps exist here (NIST, color-pollution).
+    assert status["lps"] == "insufficient for scoring"
+
+
+def test_dedup_runs_against_cie_and_nist():
+    fl2 = colour.SDS_ILLUMINANTS["FL2"]
+    cie = lamps._Raw(
+        "cie_fl2",
+        "CIE FL2",
+        "CIE2018",
+        "cie015",
+        "fluorescent_linear",
+        fl2.wavelengths,
+        fl2.values,
+    )
+    rng = np.random.default_rng(0)
+    copy = lamps._Raw(
+        "lspdd_copy",
+        "copy",
+        "LSPDD2016",
+        "lspdd",
+        "fluorescent_linear",
+        fl2.wavelengths,
+        3.0 * fl2.values * (1 + 0.01 * rng.standard_normal(81)),
+    )
+    other = lamps._Raw(
+        "lspdd_other",
+        "other",
+        "LSPDD2016",
+        "lspdd",
+        "fluorescent_linear",
+        fl2.wavelengths,
+        fl2.values[::-1],
+    )
+    kept, dup_of, removed = lamps._dedup([copy, other, cie])
+    assert removed == [("lspdd_copy", "cie_fl2")]
+    assert sorted(kept) == [1, 2] and dup_of == {2: ["lspdd_copy"]}
+
+
+def _peak(w, s, centre, half=0.8):
+    m = (w >= centre - half) & (w <= centre + half)
+    return float(w[m][np.argmax(s[m])]), float(s[m].max())
+
+
+def test_color_pollution_lines_at_nist_wavelengths(lib):
+    # Provenance of these tables is undocumented: their emission lines must sit
+    # at the NIST air wavelengths (NISTASD) within 0.5 nm (0.5 nm resampled grid
+    # + calibration), as local maxima standing out of their +-3 nm surroundings.
+    hg = (404.66, 435.83, 546.07, 576.96, 579.07)
+    cases = {
+        "color_pollution_hgv": hg,
+        "color_pollution_mh": (*hg, 819.48),
+        "color_pollution_lps": (589.3, 568.82, 819.48),  # D lines unresolved
+        "color_pollution_hps": (568.82, 818.9),  # doublet broadened, unresolved
+    }
+    meta = lamps._long_csv(lamps._COLOR_POLLUTION / "spectra.csv")
+    for lamp_id, lines in cases.items():
+        w, s = meta[
+            lamp_id.removeprefix("color_pollution_").upper()
+            if lamp_id != "color_pollution_hgv"
+            else "HgV"
+        ]
+        for c in lines:
+            at, peak = _peak(w, s, c)
+            assert abs(at - c) <= 0.5, (lamp_id, c, at)
+            around = (np.abs(w - c) > 2.5) & (np.abs(w - c) < 3.5)
+            assert peak > 1.5 * s[around].max(), (lamp_id, c)
+    # HPS: the Na D line is self-reversed (a dip at 589 nm between its wings).
+    w, s = meta["HPS"]
+    dip = s[(w > 588.5) & (w < 590.0)].min()
+    assert dip < 0.5 * s[(w > 583) & (w < 588)].max()
+    assert dip < 0.5 * s[(w > 590) & (w < 598)].max()

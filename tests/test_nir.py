@@ -164,3 +164,15 @@ def test_unknown_technology_lists_choices():
         nir.extend_spectrum(w, np.ones_like(w), "plasma", np.array([800.0]))
     with pytest.raises(ValueError, match=r"\(780, 900\]"):
         nir.extend_spectrum(w, np.ones_like(w), "hps", np.array([700.0]))
+
+
+def test_classes_without_measured_nir_are_never_validated(lib):
+    # RGB research mixes: no lamp of the class is measured beyond 780 nm here.
+    from bandopt.datasets.lamps import classes_with_measured_nir
+
+    with_nir = classes_with_measured_nir()
+    assert "led_rgb" not in with_nir and {"hps", "led_warm"} <= with_nir
+    for r in lib.records:
+        if r.extended and r.level2 not in with_nir:
+            assert r.extension_validated is False, r.id
+            assert "no measured near-infrared" in r.nir_note, r.id

@@ -75,15 +75,28 @@ def library_rows(lib) -> list[dict]:
 
 RULES = {
     "distinct_lamps": "measured spectra after near-duplicate removal; modelled "
-    "(Planck) spectra are not counted",
+    "(Planck) spectra are not counted; 'excl.' lamps are in the class but never "
+    "scored (a datasheet-like curve)",
     "duplicate_rule": "same lamp when RMS difference of unit-visible-power spectra "
-    "(380-780 nm, 5 nm) < 3 % of their mean; the copy from the first source in "
-    "li1800 > nist_philips > nist_traditional > nist_led > cie015 is kept",
+    "(380-780 nm, 5 nm) < 3 % of their mean, across all sets including "
+    "colour-science's CIE and NIST ones; the copy from the first source in "
+    "li1800 > nist_philips > nist_traditional > nist_led > cie015 > "
+    "color_pollution > photobiology > lspdd is kept (documented provenance first)",
     "led_warm_cool": "phosphor LEDs: led_warm for CCT <= 3500 K (Ohno 2013), "
     "else led_cool",
-    "excluded": "fluorescent tubes with |Duv| > 0.02 or CCT outside 1000-25000 K are "
-    "coloured tubes: no level-2 class, never scored; led_rgb research mixes are "
-    "their own class and never scored",
+    "led_amber": "LEDs with excitation purity >= 0.9 (illuminant E) and dominant "
+    "wavelength 575-610 nm: subtype direct_amber (half-maximum width < 40 nm), "
+    "pc_amber (broad, >= 0.2 % of visible power below 500 nm) or broad_amber",
+    "excluded": "fluorescent tubes and LEDs with |Duv| > 0.02 or CCT outside "
+    "1000-25000 K are coloured: no level-2 class, never scored; led_rgb research "
+    "mixes are their own class and never scored",
+    "white_son": "HPS with CCT >= 2300 K: subtype white_son, NIR extension never "
+    "flagged validated",
+    "nir": "NIR column: lamps measured to 900 nm (LSPDD, photobiology, "
+    "color-pollution, LI-1800), never extended; a class with 0 has no measured "
+    "near-infrared (its extension is unvalidated)",
+    "sets": "LSPDD (CC BY-NC-ND) is switchable: library(lspdd=False) or "
+    "BANDOPT_LSPDD=0",
     "sufficient": "a level-2 class needs >= 3 distinct measured lamps to be scored",
 }
 
@@ -137,16 +150,21 @@ def run(args) -> int:
         print()
         return 0
     if args.counts:
-        print(f"{'level1':<13}{'level2':<22}{'lamps':>6}{'CIE':>5}  status")
+        print(
+            f"{'level1':<13}{'level2':<22}{'lamps':>6}{'excl.':>6}{'CIE':>5}"
+            f"{'NIR':>5}  status"
+        )
         for c in counts:
             print(
                 f"{c['level1']:<13}{c['level2'] or '-':<22}{c['lamps']:>6}"
-                f"{c['cie_typical']:>5}  {c['status']}"
+                f"{c.get('excluded', 0):>6}{c['cie_typical']:>5}"
+                f"{c.get('nir_measured', 0):>5}  {c['status']}"
             )
         n = sum(not r.modelled for r in lib.records)
         print(
             f"\n{n} distinct measured lamps ({len(lib.removed)} near-duplicates "
-            f"removed), {len(lib) - n} modelled spectra (Planck: incandescent, fire)."
+            f"removed), {len(lib) - n} modelled spectra (Planck: incandescent, fire); "
+            f"sets: {', '.join(lib.source_sets)}."
         )
         print("Rules:")
         for k, v in RULES.items():

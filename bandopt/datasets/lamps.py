@@ -882,6 +882,17 @@ def measured_nir_spectra(lspdd: bool | None = None) -> list[dict]:
     return out
 
 
+def classes_with_measured_nir(lspdd: bool | None = None) -> frozenset[str]:
+    """Level-2 classes with at least one lamp whose measured near-infrared is
+    usable evidence (`nir_quality` None). An extended lamp of any other class
+    is never flagged validated, whatever its technology."""
+    return frozenset(
+        m["level2"]
+        for m in measured_nir_spectra(lspdd)
+        if m["nir_quality"] is None and m["level2"] is not None
+    )
+
+
 @functools.cache
 def _build(
     extend_nir: bool, grid_key: tuple[float, float, float], lspdd: bool = True
@@ -889,6 +900,7 @@ def _build(
     lo, hi, step = grid_key
     grid = np.arange(lo, hi + step / 2, step)
     raws, classified, kept, dup_of, removed = _classified(lspdd)
+    with_nir = classes_with_measured_nir(lspdd)
 
     values, records = [], []
     for i in kept:
@@ -916,7 +928,9 @@ def _build(
         elif beyond.any() and extend_nir:
             row[beyond] = nir.extend_spectrum(w, s, tech, grid[beyond], lspdd=lspdd)
             extended = True
-            validated = nir.is_validated(tech) and subtype != "white_son"
+            validated = (
+                nir.is_validated(tech) and subtype != "white_son" and level2 in with_nir
+            )
         quality = nir_quality(w, s) if measured_nir else None
         note = (
             _nir_note(extended, measured_nir, tech, validated, end, quality)
@@ -925,6 +939,8 @@ def _build(
         )
         if subtype == "white_son" and extended:
             note += "; White SON (high-CRI HPS): the HPS calibration is standard HPS"
+        elif extended and level2 not in with_nir:
+            note += f"; no measured near-infrared for class {level2} here"
         values.append(_per_lumen(grid, row))
         records.append(
             LampRecord(
