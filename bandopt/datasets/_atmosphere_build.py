@@ -155,10 +155,20 @@ def _run_one(s, wavelength_nm: float) -> dict:
             / (mu_s * o.solar_spectrum),
             "rho_scat": o.reflectance_I.total,
             "aot550": o.aot550,
+            "tau_rayleigh": o.optical_depth_total.rayleigh,
+            "tau_aerosol": o.optical_depth_total.aerosol,
             "shift_nm": shift,
         }
+        # 6S's own split of the radiance at the sensor into the part that
+        # reaches it directly (pixel) and the part scattered into the view
+        # (background): their ratio is T_dir/T_dif and checks the direct
+        # transmittance exp(-tau/mu_v). Printed with 3 decimals, check only.
+        check = {
+            "pixel_radiance": o.pixel_radiance,
+            "background_radiance": o.background_radiance,
+        }
         if all(np.isfinite(v) for v in row.values()):
-            return row
+            return row | check
     raise RuntimeError(f"6S returned NaN at {wavelength_nm} nm and ±0.05 nm.")
 
 
@@ -311,7 +321,7 @@ def _settings_key(versions: dict) -> str:
             "versions": versions,
             "ground": GROUND_REFLECTANCE,
             "date": [MONTH, DAY],
-            "schema": 1,
+            "schema": 2,  # 2: rows carry optical depths and pixel/background radiance
         },
         sort_keys=True,
     )
@@ -379,8 +389,16 @@ def _assemble(
     W = len(g["wavelength_nm"])
     fast = {
         k: np.empty((A, R, V, Z, W))
-        for k in ("t_gas", "t_scat", "rho_path", "rho_scat")
+        for k in (
+            "t_gas",
+            "t_scat",
+            "rho_path",
+            "rho_scat",
+            "tau_rayleigh",
+            "tau_aerosol",
+        )
     }
+    ratio_6s = np.empty((A, R, V, Z, W))  # pixel / background radiance of 6S
     aot = np.empty((A, R, V))
     shifted = []
     for job in (j for j in jobs if j["kind"] == "fast"):
@@ -395,6 +413,10 @@ def _assemble(
         fast["t_scat"][i] = d["t_scat_up"]
         fast["rho_path"][i] = d["rho_path"]
         fast["rho_scat"][i] = d["rho_scat"]
+        fast["tau_rayleigh"][i] = d["tau_rayleigh"]
+        fast["tau_aerosol"][i] = d["tau_aerosol"]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio_6s[i] = d["pixel_radiance"] / d["background_radiance"]
         aot[i[:3]] = d["aot550"][0]
         shifted += [
             (
@@ -407,6 +429,31 @@ def _assemble(
             for w, s in zip(d["wavelength_nm"], d["shift_nm"], strict=True)
             if s
         ]
+    # Direct (unscattered) part of the scattering transmittance, Beer-Lambert
+    # with 6S's total (Rayleigh + aerosol) optical depth of the column at the
+    # view zenith: exp(-tau / mu_v). The optical depth does not depend on the
+    # angle (checked below); the nadir run's value is stored.
+    tau = fast["tau_rayleigh"] + fast["tau_aerosol"]
+    tau_spread = float(np.max(np.abs(tau - tau[:, :, :, :1])))
+    mu = np.cos(np.deg2rad(np.asarray(g["zenith_deg"], float)))
+    t_dir = np.exp(-tau[:, :, :, :1] / mu[None, None, None, :, None])
+    t_dif = fast["t_scat"] - t_dir
+    # 6S splits the radiance at the sensor into pixel (direct) and background
+    # (diffuse) parts with the same T_dir and T_dif: their ratio checks t_dir
+    # (printed with 3 decimals: relative error up to ~5e-4/radiance).
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.abs(ratio_6s / (t_dir / t_dif) - 1)
+    ok = np.isfinite(rel) & (ratio_6s > 0) & (t_dif > 1e-3)
+    direct_check = {
+        "what": "6S pixel/background radiance against T_dir/T_dif from the optical "
+        "depth, homogeneous ground (so the ratio is the transmittance ratio)",
+        "n_compared": int(ok.sum()),
+        "median_rel_diff": float(np.median(rel[ok])),
+        "p99_rel_diff": float(np.percentile(rel[ok], 99)),
+        "max_abs_tau_difference_across_zenith": tau_spread,
+        "min_direct_over_total": float(np.min(t_dir / fast["t_scat"])),
+        "max_direct_over_total": float(np.max(t_dir / fast["t_scat"])),
+    }
     M, Wc = len(g["offnadir_moon_zenith_deg"]), len(g["offnadir_wavelength_nm"])
     off = np.empty((R, V, M, Wc))
     for job in (j for j in jobs if j["kind"] == "offnadir"):
@@ -467,6 +514,9 @@ def _assemble(
         zenith_deg=np.asarray(g["zenith_deg"], float),
         t_gas=fast["t_gas"].astype(f32),
         t_scat=fast["t_scat"].astype(f32),
+        t_scat_direct=t_dir.astype(f32),
+        tau_rayleigh=fast["tau_rayleigh"][:, :, :, 0].astype(f32),
+        tau_aerosol=fast["tau_aerosol"][:, :, :, 0].astype(f32),
         rho_path=fast["rho_path"].astype(f32),
         rho_scat=fast["rho_scat"].astype(f32),
         aot550=aot,
@@ -485,11 +535,17 @@ def _assemble(
         "versions": versions,
         "citations": ["Vermote1997", "Kotchenova2006", "Wilson2013"],
         "axes": {
-            "t_gas, t_scat, rho_path, rho_scat": [
+            "t_gas, t_scat, t_scat_direct, rho_path, rho_scat": [
                 "atmosphere",
                 "aerosol",
                 "visibility_km",
                 "zenith_deg",
+                "wavelength_nm",
+            ],
+            "tau_rayleigh, tau_aerosol": [
+                "atmosphere",
+                "aerosol",
+                "visibility_km",
                 "wavelength_nm",
             ],
             "aot550": ["atmosphere", "aerosol", "visibility_km"],
@@ -517,6 +573,12 @@ def _assemble(
             "t_gas": "transmittance_global_gas.upward at zenith_deg (one-way)",
             "t_scat": "transmittance_total_scattering.upward at zenith_deg (Rayleigh + "
             "aerosol, direct + diffuse, one-way)",
+            "t_scat_direct": "exp(-(tau_rayleigh + tau_aerosol) / cos(zenith_deg)): "
+            "the unscattered (direct) part of t_scat, with 6S's column optical "
+            "depths ('optical depth total'); the diffuse part is t_scat - "
+            "t_scat_direct",
+            "tau_rayleigh, tau_aerosol": "6S 'optical depth total' of the column "
+            "(sea level to top of atmosphere), Rayleigh and aerosol",
             "rho_path": "atmospheric intrinsic reflectance = pi * "
             "atmospheric_intrinsic_radiance / (cos(solar_z) * solar_spectrum), "
             "Sun at 0, view at "
@@ -542,6 +604,7 @@ def _assemble(
         },
         "nan_retries": shifted,
         "reciprocity_check": recip,
+        "direct_transmittance_check": direct_check,
         "offnadir_atmosphere_check": offcheck,
     }
     (out / META_FILE).write_text(json.dumps(meta, indent=1) + "\n")
