@@ -336,3 +336,55 @@ def test_color_pollution_lines_at_nist_wavelengths(lib):
     dip = s[(w > 588.5) & (w < 590.0)].min()
     assert dip < 0.5 * s[(w > 583) & (w < 588)].max()
     assert dip < 0.5 * s[(w > 590) & (w < 598)].max()
+
+
+def _line(w, v, centre, half=2.0, contrast=1.3):
+    m = (w >= centre - half) & (w <= centre + half)
+    around = (np.abs(w - centre) > 4) & (np.abs(w - centre) < 7)
+    return v[m].max() > contrast * v[around].max()
+
+
+def test_new_sets_spectra_look_like_their_class(lib):
+    # The classes of the new sets come from metadata (LSPDD `category`, R object
+    # names, file names): check each against the physics of its class.
+    w = lib.wavelength_nm
+    new = ("lspdd", "photobiology", "color_pollution")
+
+    def members(*l2):
+        return [
+            (r, v)
+            for r, v in zip(lib.records, lib.values, strict=True)
+            if r.level2 in l2 and r.source_set in new and r.excluded is None
+        ]
+
+    # Metal halide: Hg 546.1 nm, Na D and the Na 819 nm doublet.
+    mh = members("metal_halide")
+    assert len(mh) == 4
+    for r, v in mh:
+        assert _line(w, v, 546.0), r.id
+        assert _line(w, v, 589.0, 3) and _line(w, v, 819.0, 3), r.id
+    # CFLs: Hg 546.1 nm and the Eu3+ 611 nm phosphor line (85 %: a few LSPDD
+    # records are too noisy for the 546 nm test).
+    cfl = members("fluorescent_compact")
+    ok = [_line(w, v, 546.0) and _line(w, v, 611.0) for _, v in cfl]
+    assert len(cfl) >= 25 and np.mean(ok) >= 0.85
+    # Incandescent/halogen: a smooth thermal spectrum rising through the visible
+    # (20 nm means), no line above 1.3x its 11 nm running mean (LSPDD noise is
+    # up to 7 % per sample).
+    for r, v in members("incandescent_halogen"):
+        blocks = [v[(w >= a) & (w < a + 20)].mean() for a in range(450, 750, 20)]
+        run = np.convolve(v, np.ones(11) / 11, "same")
+        m = (w >= 450) & (w <= 750)
+        assert np.all(np.diff(blocks) > 0) and np.max(v[m] / run[m]) < 1.3, r.id
+    # White LEDs: a blue/violet pump (400-475 nm), a dip, a phosphor band.
+    for r, v in members("led_warm", "led_cool"):
+        pump, dip = v[(w >= 400) & (w <= 475)].max(), v[(w >= 470) & (w <= 510)].min()
+        assert dip < 0.8 * pump and v[(w >= 520) & (w <= 660)].max() > 1.2 * dip, r.id
+
+
+def test_manifest_records_the_lamp_sets():
+    from bandopt.provenance import lamp_library_info
+
+    info = lamp_library_info()
+    assert info["lspdd"] is True and info["source_sets"]["lspdd"] >= 150
+    assert {"color_pollution", "photobiology", "li1800"} <= set(info["source_sets"])
