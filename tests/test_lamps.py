@@ -386,8 +386,9 @@ def test_new_sets_spectra_look_like_their_class(lib):
     # high-CRI packages fill the cyan), a phosphor band.
     for r, v in members("led_warm", "led_cool"):
         pump, dip = v[(w >= 400) & (w <= 475)].max(), v[(w >= 470) & (w <= 510)].min()
-        # and a phosphor band rising above the dip (> 1.02x: the high-CRI Bridgelux
-        # BXRE-50S2001-C-73 fills the cyan so its phosphor peak is only 1.06-1.18x the dip)
+        # and a phosphor band rising above the dip (> 1.02x: high-CRI packages such
+        # as the Bridgelux BXRE-50S2001-C-73 fill the cyan, so their phosphor peak
+        # is only 1.06-1.18x the dip)
         assert dip < 0.9 * pump and v[(w >= 520) & (w <= 660)].max() > 1.02 * dip, r.id
 
 
