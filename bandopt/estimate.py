@@ -233,14 +233,23 @@ def fit_ridge(
     y = jnp.asarray(y)
     y = jnp.where(w > 0, y, 0.0)
     y = jnp.where(jnp.isfinite(y), y, 0.0)
+    mu, sd = weighted_standardisation(x, w)
+    beta, b0 = ridge_solve((x - mu[None, :]) / sd[None, :], y, w, lam)
+    return RidgeFit(mu, sd, beta, b0)
+
+
+def weighted_standardisation(
+    x: Float[ArrayLike, "n p"], weight: Float[ArrayLike, " n"]
+) -> tuple[Float[Array, " p"], Float[Array, " p"]]:
+    """Weighted mean and standard deviation of each feature; a constant feature
+    (variance <= 1e-24) keeps scale 1 (double-where, finite gradients). [units of x]"""
+    x, w = jnp.asarray(x), jnp.asarray(weight)
     sw = jnp.sum(w)
     sw = jnp.where(sw > 0, sw, 1.0)
     mu = jnp.sum(w[:, None] * x, 0) / sw
     var = jnp.sum(w[:, None] * (x - mu[None, :]) ** 2, 0) / sw
     pos = var > 1e-24
-    sd = jnp.where(pos, jnp.sqrt(jnp.where(pos, var, 1.0)), 1.0)
-    beta, b0 = ridge_solve((x - mu[None, :]) / sd[None, :], y, w, lam)
-    return RidgeFit(mu, sd, beta, b0)
+    return mu, jnp.where(pos, jnp.sqrt(jnp.where(pos, var, 1.0)), 1.0)
 
 
 # ------------------------------------------------------------------------------
@@ -471,4 +480,5 @@ __all__ = [
     "resolve_target",
     "ridge_solve",
     "to_model_space",
+    "weighted_standardisation",
 ]

@@ -41,6 +41,7 @@ from ..estimate import (
     cv_loss,
     fit_ridge,
     log_ratio_features,
+    weighted_standardisation,
 )
 
 
@@ -282,10 +283,7 @@ def shared_ridge_cv(x, Y, mask, train_w, val_w, lam):
         w = t * mask
         sw = jnp.sum(w)
         sw = jnp.where(sw > 0, sw, 1.0)
-        mu = jnp.sum(w[:, None] * x, 0) / sw
-        var = jnp.sum(w[:, None] * (x - mu[None, :]) ** 2, 0) / sw
-        pos = var > 1e-24
-        sd = jnp.where(pos, jnp.sqrt(jnp.where(pos, var, 1.0)), 1.0)
+        mu, sd = weighted_standardisation(x, w)
         xs = (x - mu[None, :]) / sd[None, :]
         yy = jnp.where(w[:, None] > 0, Y, 0.0)
         mx = jnp.sum(w[:, None] * xs, 0) / sw
