@@ -1,10 +1,33 @@
-"""Scenario set + band set -> band radiances (optionally with photon noise and
-quantisation), and their table with every scenario label.
+"""The measurement: spectra or a scenario set + a band set -> band radiance
+(optionally with photon noise and quantisation), and the scenario table with
+every label.
 
-This is the glue between `bandopt.scene` (factor arrays, contraction) and
-`bandopt.sensor` (responses, photon model, quantisation). The wavelength grid
-is cropped statically to the union of the bands' supports (response >= `tail`
-of each band's peak) before contracting.
+Every part of bandopt (search, classify, radiometry, `simulate`, the
+inversion) measures band radiance through this module, so the same inputs and
+the same `key` give the same numbers everywhere:
+
+- `radiance_from_response`: the pure-JAX core, spectra `(n, w)` x responses
+  `(b, w)` -> `(n, b)`, differentiable in the responses (searches jit it);
+- `band_measurement` / `band_radiance`: the same for a `ScenarioSet`
+  (factorised contraction, grid cropped to the bands' support), a
+  `ScenarioTable` or dense spectra, and any band set;
+- `noise_draws`: the one rule for photon-noise draws (common random numbers);
+- `ScenarioTable` / `scenario_table`: every lamp scene as a labelled row.
+
+**Noise model** (`bandopt.sensor`, thesis Eqs. 2.16-2.19, Table 2.3): signal
+electrons from the exact photon integral `e = L @ photon_weightsᵀ`, Gaussian
+shot/dark/read noise `e + σ(e) z`, back to radiance with the flat-field
+responsivity `Σ_w photon_weights`. A band with zero responsivity on the grid
+(no response, or response where the QE is zero) reads 0, not NaN.
+
+**Draws** (`noise_draws`): `z[:, j] = normal(fold_in(key, j), (n,))`, one
+standard normal per scene row and band, with `key = jax.random.PRNGKey(seed)`
+for an integer seed. Rows are the scenes in C order over (lamp, surface,
+atmosphere, Moon, class), so a scene gets the same draw whichever caller
+measures it, and band j's draws do not depend on how many bands there are.
+
+The grid of a scenario set is cropped statically to the union of the bands'
+supports (response >= `tail` of each band's peak) before contracting.
 """
 
 import dataclasses
@@ -12,12 +35,21 @@ import dataclasses
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float
 
-from .scene import BandTerms, ScenarioSet, band_terms, band_weights, lamp_scenes
+from .datasets.lamps import library
+from .scene import (
+    BandTerms,
+    Factors,
+    ScenarioSet,
+    band_terms,
+    band_weights,
+    lamp_scenes,
+)
 from .sensor import (
     SensorParams,
-    add_photon_noise,
     crop_to_support,
+    noise_electrons,
     photon_weights,
     quantise,
 )
@@ -26,6 +58,370 @@ from .sensor import (
 DEFAULT_TAIL = 1e-6
 """Responses below this fraction of a band's peak are cropped away (changes
 band averages by about this much, relative)."""
+
+_HI = jax.lax.Precision.HIGHEST
+
+
+# ------------------------------------------------------------------------------
+# noise draws and the pure-JAX core
+
+
+def prng_key(key) -> Array:
+    """`key` as a JAX PRNG key: an integer seed -> `jax.random.PRNGKey(seed)`;
+    a key array is returned unchanged."""
+    if isinstance(key, (int, np.integer)):
+        return jax.random.PRNGKey(int(key))
+    return key
+
+
+def noise_draws(key, n_rows: int, n_bands: int, dtype=None) -> Float[Array, "n b"]:
+    """Standard normal draws `(n_rows, n_bands)` for photon noise (module
+    docstring): column j is `normal(fold_in(key, j), (n_rows,))`. `key`: an
+    integer seed or a JAX key. [1]"""
+    k = prng_key(key)
+    dtype = jnp.result_type(float) if dtype is None else dtype
+    cols = jax.vmap(
+        lambda j: jax.random.normal(jax.random.fold_in(k, j), (n_rows,), dtype)
+    )
+    return cols(jnp.arange(n_bands)).T
+
+
+def radiance_from_response(
+    spectra: Float[ArrayLike, "n w"],
+    wavelength_nm: Float[ArrayLike, " w"],
+    response: Float[ArrayLike, "b w"],
+    noise_z: Float[ArrayLike, "n b"] | None = None,
+    sensor: SensorParams | None = None,
+) -> Float[Array, "n b"]:
+    """Band-averaged radiance `(n, b)` of spectra `(n, w)` for relative
+    responses `(b, w)` on the same grid: one dense matmul. With standard normal
+    draws `noise_z (n, b)`, photon noise of `sensor` (default Table 2.3) as in
+    the module docstring; a band with zero responsivity reads 0. Pure JAX,
+    differentiable in `response`. [W m⁻² sr⁻¹ nm⁻¹]"""
+    spectra = jnp.asarray(spectra)
+    if noise_z is None:
+        wts = band_weights(response, wavelength_nm)
+        return jnp.matmul(spectra, wts.T, precision=_HI)
+    sensor = SensorParams() if sensor is None else sensor
+    pw = photon_weights(response, wavelength_nm, sensor, None)
+    electrons = jnp.matmul(spectra, pw.T, precision=_HI)
+    return _noisy_radiance(electrons, jnp.sum(pw, axis=-1), noise_z, sensor)
+
+
+def _noisy_radiance(electrons, resp_e, z, sensor):
+    """`(e + σ(e) z) / responsivity`, 0 where the responsivity is 0
+    (double-where: finite gradients there too)."""
+    lead = (1,) * (electrons.ndim - 1)
+    resp_e = jnp.reshape(resp_e, (*lead, -1))
+    ok = resp_e > 0
+    noisy = electrons + noise_electrons(electrons, sensor) * jnp.asarray(
+        z, electrons.dtype
+    ).reshape(electrons.shape)
+    return jnp.where(ok, noisy / jnp.where(ok, resp_e, 1.0), 0.0)
+
+
+# ------------------------------------------------------------------------------
+# the scenario table
+
+
+LEVELS = ("level1", "level2")
+CONDITIONS = ("surface", "atmosphere", "moon", "lighting_class")
+
+
+def resolve_level(level) -> str:
+    """`"level1"`/`"level2"` (also accepts 1, 2, "L1", "level-2")."""
+    key = str(level).strip().lower().replace("-", "").replace("_", "").replace(" ", "")
+    key = {
+        "1": "level1",
+        "l1": "level1",
+        "level1": "level1",
+        "2": "level2",
+        "l2": "level2",
+        "level2": "level2",
+    }.get(key)
+    if key is None:
+        raise ValueError(f"Unknown level {level!r}; expected one of {list(LEVELS)}.")
+    return key
+
+
+@dataclasses.dataclass(frozen=True)
+class ScenarioTable:
+    """Every lamp scene of a scenario set as a row (C order over lamp,
+    surface, atmosphere, Moon, class: the rows of `noise_draws`).
+
+    - `toa`: TOA spectral radiance, `(n, w)`. [W m⁻² sr⁻¹ nm⁻¹]
+    - `wavelength_nm`: `(w,)`. [nm]
+    - `lamp`: lamp index of each row, `(n,)`; `lamp_ids`, `level1`, `level2`
+      per lamp (`bandopt.datasets.lamps` identifiers).
+    - `surface`, `atmosphere`, `moon`, `lighting_class`: condition labels, `(n,)`.
+    - `config`: the scenario set's configuration.
+    """
+
+    toa: np.ndarray
+    wavelength_nm: np.ndarray
+    lamp: np.ndarray
+    lamp_ids: tuple[str, ...]
+    level1: np.ndarray
+    level2: np.ndarray
+    surface: np.ndarray
+    atmosphere: np.ndarray
+    moon: np.ndarray
+    lighting_class: np.ndarray
+    config: dict
+
+    @property
+    def n_rows(self) -> int:
+        return int(self.toa.shape[0])
+
+    def lamp_classes(self, level) -> np.ndarray:
+        """Class of each lamp at `level`, `(l,)`."""
+        return self.level1 if resolve_level(level) == "level1" else self.level2
+
+    def labels(self, level) -> np.ndarray:
+        """Class of each row at `level`, `(n,)`."""
+        return self.lamp_classes(level)[self.lamp]
+
+    def condition(self, factor: str) -> np.ndarray:
+        """Labels of one condition factor (`surface`, `atmosphere`, `moon`,
+        `lighting_class`), `(n,)`."""
+        if factor not in CONDITIONS:
+            raise ValueError(
+                f"Unknown factor {factor!r}; expected one of {list(CONDITIONS)}."
+            )
+        return getattr(self, factor)
+
+    def rows_of_lamps(self, lamps) -> np.ndarray:
+        """Boolean row mask of the given lamp indices."""
+        return np.isin(self.lamp, np.asarray(lamps, int))
+
+    def noise_z(self, n_bands: int, seed) -> np.ndarray:
+        """`noise_draws(seed, n_rows, n_bands)` (common random numbers)."""
+        return np.asarray(noise_draws(seed, self.n_rows, n_bands))
+
+    def band_radiance(
+        self,
+        bands,
+        *,
+        noise: bool = False,
+        params: SensorParams | None = None,
+        seed=0,
+    ) -> np.ndarray:
+        """`band_radiance(self, bands, ...)`: every row, `(n, b)`
+        [W m⁻² sr⁻¹ nm⁻¹]; with photon noise of `params` (default Table 2.3)
+        drawn from `seed` when `noise`."""
+        return np.asarray(
+            band_radiance(self, bands, sensor=params, noise=noise, key=seed)
+        )
+
+
+def dense_spectra(scen: ScenarioSet) -> Float[Array, "l s a m c w"]:
+    """TOA spectral radiance of every lamp scene, `(l, s, a, m, c, w)`, from
+    the factorised model (`band_terms` with identity weights, i.e. sampling
+    each wavelength). Memory grows with scenes x wavelengths: for the search
+    and classification sets, not for large simulations."""
+    f = scen.factors
+    eye = jnp.eye(f.wavelength_nm.shape[0], dtype=f.lamp.dtype)
+    return lamp_scenes(band_terms(f, eye))
+
+
+def scenario_table(scen: ScenarioSet) -> ScenarioTable:
+    """All lamp scenes of `scen` as rows (C order over lamp, surface,
+    atmosphere, Moon, class). Lamps must be library ids."""
+    toa = np.asarray(dense_spectra(scen))
+    shape = toa.shape[:-1]
+    idx = np.indices(shape).reshape(len(shape), -1)
+    rec = {r.id: r for r in library().records}
+    missing = [i for i in scen.lamp_ids if i not in rec]
+    if missing:
+        raise ValueError(f"Lamps {missing[:5]} are not in the library (no typology).")
+    lvl1 = np.asarray([rec[i].level1 for i in scen.lamp_ids], dtype=object)
+    lvl2 = np.asarray([rec[i].level2 for i in scen.lamp_ids], dtype=object)
+
+    def lab(labels, axis):
+        return np.asarray(labels, dtype=object)[idx[axis]]
+
+    moons = (
+        scen.moon_labels if len(scen.moon_labels) == shape[3] else ("none",) * shape[3]
+    )
+    return ScenarioTable(
+        toa=toa.reshape(-1, toa.shape[-1]),
+        wavelength_nm=np.asarray(scen.factors.wavelength_nm),
+        lamp=idx[0].astype(int),
+        lamp_ids=tuple(scen.lamp_ids),
+        level1=lvl1,
+        level2=lvl2,
+        surface=lab(scen.surface_labels, 1),
+        atmosphere=lab(scen.atmosphere_labels, 2),
+        moon=lab(moons, 3),
+        lighting_class=lab(scen.class_labels, 4),
+        config=dict(scen.config),
+    )
+
+
+# ------------------------------------------------------------------------------
+# band radiance of anything
+
+
+@dataclasses.dataclass(frozen=True)
+class BandMeasurement:
+    """What `band_measurement` returns.
+
+    - `radiance`: measured band radiance, `(*batch, b)`; noisy when noise was
+      asked, else equal to `clean`. [W m⁻² sr⁻¹ nm⁻¹]
+    - `clean`: noise-free band-averaged radiance, `(*batch, b)`. [W m⁻² sr⁻¹ nm⁻¹]
+    - `electrons`: noise-free signal electrons `(*batch, b)`, or None. [e-]
+    - `responsivity_e`: flat-field responsivity `(b,)`, or None.
+      [e- per W m⁻² sr⁻¹ nm⁻¹]
+    - `noise_z`: the standard normal draws `(n, b)` used, or None. [1]
+    - `terms`: the noise-free `BandTerms` of a scenario set, else None.
+    - `grid_nm`: first and last wavelength of the grid used. [nm]
+    """
+
+    radiance: Array
+    clean: Array
+    electrons: Array | None
+    responsivity_e: Array | None
+    noise_z: Array | None
+    terms: BandTerms | None
+    grid_nm: tuple[float, float]
+
+
+def _response_on(bands, wavelength_nm) -> Array:
+    if hasattr(bands, "response"):
+        return jnp.asarray(bands.response(jnp.asarray(wavelength_nm)))
+    resp = jnp.asarray(bands)
+    if resp.ndim != 2 or resp.shape[-1] != np.shape(wavelength_nm)[-1]:
+        raise ValueError(
+            "bands must be a band set (with .response(wavelength_nm)) or a "
+            f"response array (b, {np.shape(wavelength_nm)[-1]}) on the grid; "
+            f"got shape {resp.shape}."
+        )
+    return resp
+
+
+def cropped(scen: ScenarioSet, bands, *, tail: float = DEFAULT_TAIL):
+    """(factors, response) on the grid cropped to the bands' support."""
+    return _cropped(scen.factors, bands, tail)
+
+
+def _cropped(f: Factors, bands, tail):
+    w = f.wavelength_nm
+    resp = _response_on(bands, w)
+    sl = crop_to_support(w, resp, tail=tail)
+    fc = f.crop(float(w[sl.start]), float(w[sl.stop - 1]))
+    if hasattr(bands, "response"):
+        return fc, _response_on(bands, fc.wavelength_nm)
+    i0 = int(np.searchsorted(np.asarray(w), float(fc.wavelength_nm[0])))
+    return fc, resp[:, i0 : i0 + fc.wavelength_nm.shape[0]]
+
+
+def band_measurement(
+    source,
+    bands,
+    *,
+    wavelength_nm: Float[ArrayLike, " w"] | None = None,
+    sensor: SensorParams | None = None,
+    noise=False,
+    key=0,
+    crop: bool = True,
+    tail: float = DEFAULT_TAIL,
+) -> BandMeasurement:
+    """Band radiance of `source` for `bands`, noise-free and measured.
+
+    **Arguments:**
+
+    - `source`: a `ScenarioSet` or its `Factors` (factorised contraction,
+      result `(l, s, a, m, c, b)`), a `ScenarioTable` (`(n, b)`), or spectra
+      `(*batch, w)` with `wavelength_nm`. [W m⁻² sr⁻¹ nm⁻¹]
+    - `bands`: a band set (anything with `.response(wavelength_nm)`) or a
+      response array `(b, w)` on the source's grid. [1]
+    - `sensor`: `SensorParams` of the photon model (default Table 2.3).
+    - `noise`: False: noise-free; True: Gaussian photon noise from
+      `noise_draws(key, n, b)`; or the standard normal draws `(n, b)` to use.
+    - `key`: integer seed or JAX key of the draws.
+    - `crop`: for a scenario set, contract only over the bands' support
+      (samples below `tail` of each band's peak; changes results by ~`tail`).
+    """
+    terms = None
+    if isinstance(source, ScenarioSet):
+        source = source.factors
+    if isinstance(source, Factors):
+        if crop:
+            f, resp = _cropped(source, bands, tail)
+        else:
+            f, resp = source, _response_on(bands, source.wavelength_nm)
+        wl = f.wavelength_nm
+        terms = band_terms(f, band_weights(resp, wl))
+        clean = lamp_scenes(terms)
+
+        def contract(weights):
+            return lamp_scenes(band_terms(f, weights))
+
+    else:
+        if isinstance(source, ScenarioTable):
+            spectra, wl = jnp.asarray(source.toa), source.wavelength_nm
+        else:
+            if wavelength_nm is None:
+                raise ValueError(
+                    "wavelength_nm is required when source is a spectra array."
+                )
+            spectra, wl = jnp.asarray(source), wavelength_nm
+        wl = jnp.asarray(wl)
+        if spectra.shape[-1] != wl.shape[0]:
+            raise ValueError(
+                f"spectra have {spectra.shape[-1]} samples, wavelength_nm "
+                f"{wl.shape[0]}."
+            )
+        resp = _response_on(bands, wl)
+        clean = radiance_from_response(spectra, wl, resp)
+
+        def contract(weights):
+            return jnp.matmul(spectra, weights.T, precision=_HI)
+
+    grid = (float(wl[0]), float(wl[-1]))
+    if noise is False or noise is None:
+        return BandMeasurement(clean, clean, None, None, None, terms, grid)
+    sensor = SensorParams() if sensor is None else sensor
+    pw = photon_weights(resp, wl, sensor, None)
+    electrons = contract(pw)
+    resp_e = jnp.sum(pw, axis=-1)
+    b = clean.shape[-1]
+    n = int(np.prod(clean.shape[:-1]))
+    if noise is True:
+        z = noise_draws(key, n, b, electrons.dtype)
+    else:
+        z = jnp.asarray(noise, electrons.dtype)
+        if z.shape != (n, b):
+            raise ValueError(f"noise draws must have shape {(n, b)}, got {z.shape}.")
+    radiance = _noisy_radiance(electrons, resp_e, z, sensor)
+    return BandMeasurement(radiance, clean, electrons, resp_e, z, terms, grid)
+
+
+def band_radiance(
+    source,
+    bands,
+    *,
+    wavelength_nm: Float[ArrayLike, " w"] | None = None,
+    sensor: SensorParams | None = None,
+    noise=False,
+    key=0,
+    crop: bool = True,
+) -> Array:
+    """Measured band radiance of `source` for `bands`:
+    `band_measurement(...).radiance` (same arguments). [W m⁻² sr⁻¹ nm⁻¹]"""
+    return band_measurement(
+        source,
+        bands,
+        wavelength_nm=wavelength_nm,
+        sensor=sensor,
+        noise=noise,
+        key=key,
+        crop=crop,
+    ).radiance
+
+
+# ------------------------------------------------------------------------------
+# simulate
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,15 +442,6 @@ class Simulation:
     config: dict
 
 
-def cropped(scen: ScenarioSet, bands, *, tail: float = DEFAULT_TAIL):
-    """(factors, response) on the grid cropped to the bands' support."""
-    w = scen.factors.wavelength_nm
-    resp = bands.response(w)
-    sl = crop_to_support(w, resp, tail=tail)
-    f = scen.factors.crop(float(w[sl.start]), float(w[sl.stop - 1]))
-    return f, bands.response(f.wavelength_nm)
-
-
 def simulate(
     scen: ScenarioSet,
     bands,
@@ -69,41 +456,30 @@ def simulate(
     """Band-averaged TOA radiance of every lamp scene of `scen` for `bands`.
 
     `noise`: photon model of `bandopt.sensor` with `params` (default the
-    thesis's Table 2.3): signal electrons from the exact ∫ L R η λ/(hc) dλ,
-    Gaussian shot/read/dark noise drawn from `seed`, back to radiance with the
-    flat-field responsivity. `bits`: quantise between `limits = (L_min, L_max)`
-    per band (default: the noise-free minimum and maximum of this set, stated
-    in `config`) and dequantise.
+    thesis's Table 2.3) as in `band_measurement`, draws from `seed`
+    (`noise_draws`). `bits`: quantise between `limits = (L_min, L_max)` per
+    band (default: the noise-free minimum and maximum of this set, stated in
+    `config`) and dequantise.
     """
     params = SensorParams() if params is None else params
-    if crop:
-        f, resp = cropped(scen, bands)
-    else:
-        f, resp = scen.factors, bands.response(scen.factors.wavelength_nm)
-    weights = band_weights(resp, f.wavelength_nm)
-    terms = band_terms(f, weights)
-    radiance = lamp_scenes(terms)
+    m = band_measurement(scen, bands, sensor=params, noise=noise, key=seed, crop=crop)
+    radiance = m.radiance
     config = {
         "noise": noise,
         "seed": seed,
         "bits": bits,
         "crop": crop,
-        "grid_nm": [float(f.wavelength_nm[0]), float(f.wavelength_nm[-1])],
+        "grid_nm": list(m.grid_nm),
     }
-    electrons = None
     if noise:
-        pw = photon_weights(resp, f.wavelength_nm, params, None)
-        electrons = lamp_scenes(band_terms(f, pw))
-        resp_e = jnp.sum(pw, axis=-1)
-        noisy = add_photon_noise(jax.random.PRNGKey(seed), electrons, params)
-        radiance = noisy / resp_e.reshape((1,) * (noisy.ndim - 1) + (-1,))
+        config["noise_draws"] = "bandopt.forward.noise_draws(seed, scenes, bands)"
         config["sensor"] = {
             fld.name: np.asarray(getattr(params, fld.name)).tolist()
             for fld in dataclasses.fields(params)
         }
     if bits is not None:
         if limits is None:
-            clean = lamp_scenes(terms)
+            clean = m.clean
             lo = jnp.min(clean, axis=tuple(range(clean.ndim - 1)))
             hi = jnp.max(clean, axis=tuple(range(clean.ndim - 1)))
             config["limits_rule"] = (
@@ -124,8 +500,8 @@ def simulate(
     )
     return Simulation(
         np.asarray(radiance),
-        None if electrons is None else np.asarray(electrons),
-        terms,
+        None if m.electrons is None else np.asarray(m.electrons),
+        m.terms,
         names,
         config,
     )
@@ -135,12 +511,9 @@ def to_frame(scen: ScenarioSet, sim: Simulation):
     """A pandas DataFrame: one row per lamp scene, label columns (lamp id,
     level1, level2, surface, atmosphere, moon, class, illuminance) and one
     radiance column per band [W m⁻² sr⁻¹ nm⁻¹]."""
-    import pandas as pd
+    import pandas as pd  # pandas only for this export (start-up time)
 
-    from .datasets.lamps import library
-
-    lib = library()
-    rec = {r.id: r for r in lib.records}
+    rec = {r.id: r for r in library().records}
     shape = sim.radiance.shape[:-1]
     idx = np.indices(shape).reshape(len(shape), -1)
     frame = {

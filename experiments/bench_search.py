@@ -35,8 +35,8 @@ def contraction_bench(ctx) -> dict:
     import jax
     import jax.numpy as jnp
 
+    from bandopt.forward import radiance_from_response as band_radiance
     from bandopt.scene import band_terms, band_weights, build_scenarios, lamp_scenes
-    from bandopt.search._problem import band_radiance
     from bandopt.sensor import BandSet
 
     scen = build_scenarios(

@@ -587,9 +587,9 @@ def main(argv=None) -> int:
 
     configure()
     from bandopt.classify import available_atmospheres, evaluate_band_set
-    from bandopt.classify._data import scenario_table
     from bandopt.classify._evaluate import summary
     from bandopt.classify._predict import TRAINING_SCENARIOS
+    from bandopt.forward import scenario_table
     from bandopt.provenance import write_manifest
     from bandopt.results import RESULTS_DIR, update_recommendation
     from bandopt.scene import build_scenarios

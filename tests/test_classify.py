@@ -25,7 +25,7 @@ from bandopt.classify import (
     soft_nn_loss,
     vote_proba,
 )
-from bandopt.classify._data import radiance_from_response
+from bandopt.forward import radiance_from_response
 
 
 # ------------------------------------------------------------------------------

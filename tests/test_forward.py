@@ -118,3 +118,88 @@ def test_simulate_cli_bad_atmosphere(tmp_path, capsys):
         ]
     )
     assert code == 2 and "--atmospheres 'mars'" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------------
+# one measurement path
+
+
+def test_same_seed_same_noise_in_every_caller(scen, bands):
+    """simulate, the classification table, the radiometry measurement and the
+    band-search problem (on all lamps and on a subset) draw the same noise for
+    the same scene, band and seed."""
+    import jax.numpy as jnp
+
+    from bandopt.estimate import LampTable
+    from bandopt.forward import band_radiance, scenario_table
+    from bandopt.radiometry import measure
+    from bandopt.search import Space, make_problem, scenario_spectra
+
+    seed = 5
+    b = 3
+    sim = simulate(scen, bands, noise=True, seed=seed).radiance.reshape(-1, b)
+    table = scenario_table(scen)
+    tab = table.band_radiance(bands, noise=True, seed=seed)
+    rad = measure(scen, bands, seed=seed).noisy
+    direct = np.asarray(band_radiance(scen, bands, noise=True, key=seed))
+    # simulate and measure crop the grid to the bands' support (~1e-6 relative)
+    np.testing.assert_array_equal(rad, sim)
+    np.testing.assert_array_equal(direct.reshape(-1, b), sim)
+    np.testing.assert_allclose(tab, sim, rtol=1e-5)
+    clean = simulate(scen, bands).radiance.reshape(-1, b)
+    assert np.all(np.abs(sim - clean) > 1e-6 * np.abs(clean))  # noise is there
+
+    toa = scenario_spectra(scen)
+    n_l, q = toa.shape[:2]
+    lt = LampTable(
+        np.repeat(np.arange(n_l), q), np.array(["a", "b", "a"], object),
+        np.ones((n_l, 3)), np.ones((n_l, 3), bool),
+    )  # fmt: skip
+    wl = table.wavelength_nm
+    resp = jnp.asarray(bands.response(wl))
+    for lamps in ([0, 1, 2], [1, 2]):
+        prob = make_problem(
+            toa, wl, lt, np.asarray(lamps), [([lamps[0]], [lamps[1]])],
+            target="all", space=Space(b, pan="none"), noise=True, seed=seed,
+        )  # fmt: skip
+        got = np.asarray(prob.radiance_from_response(resp))
+        np.testing.assert_allclose(got, tab[table.rows_of_lamps(lamps)], rtol=1e-12)
+
+
+def test_noise_draws_per_band_and_key():
+    """Band j's draws do not depend on the number of bands; an integer seed and
+    its PRNGKey give the same draws; the draws look standard normal."""
+    import jax
+
+    from bandopt.forward import noise_draws
+
+    a = np.asarray(noise_draws(7, 2000, 2))
+    b = np.asarray(noise_draws(jax.random.PRNGKey(7), 2000, 4))
+    np.testing.assert_array_equal(a, b[:, :2])
+    assert not np.array_equal(b[:, 0], b[:, 1])
+    # mean and SD of 8000 N(0, 1) draws: 5 standard errors
+    assert abs(b.mean()) < 5 / np.sqrt(b.size)
+    assert abs(b.std() - 1) < 5 / np.sqrt(2 * b.size)
+
+
+def test_zero_responsivity_band_reads_zero_with_finite_gradient():
+    """A band with no response on the grid reads 0 (not NaN), noisy or not,
+    and the gradient through the photon model stays finite."""
+    import jax
+    import jax.numpy as jnp
+
+    from bandopt.forward import noise_draws, radiance_from_response
+
+    wl = jnp.arange(400.0, 901.0, 5.0)
+    spectra = jnp.stack([jnp.ones_like(wl), 1 + wl / 900.0]) * 1e-6
+    resp = jnp.stack([jnp.exp(-0.5 * ((wl - 560.0) / 30.0) ** 2), 0 * wl])
+    z = noise_draws(0, 2, 2)
+    for noise in (None, z):
+        out = np.asarray(radiance_from_response(spectra, wl, resp, noise))
+        assert np.all(np.isfinite(out)) and np.all(out[:, 1] == 0)
+        assert np.all(out[:, 0] > 0)
+
+    def f(r):
+        return jnp.sum(radiance_from_response(spectra, wl, r, z))
+
+    assert np.all(np.isfinite(np.asarray(jax.grad(f)(resp))))

@@ -4,7 +4,7 @@ matrices, a reject option, and band selection for classification (nlopt
 global search of the real F1; a differentiable soft-nearest-neighbour
 surrogate with optimistix)."""
 
-from ._data import (
+from ..forward import (
     CONDITIONS as CONDITIONS,
     LEVELS as LEVELS,
     ScenarioTable as ScenarioTable,

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ._data import ScenarioTable, resolve_level
+from ..forward import ScenarioTable, resolve_level
 from ._features import deduplicate, features
 from ._knn import K_GRID, REJECT_THRESHOLD, choose_k, make_classifier, reject
 from ._metrics import reject_curve, scores

@@ -14,7 +14,7 @@ import hashlib
 
 import numpy as np
 
-from ._data import ScenarioTable, scenario_table
+from ..forward import ScenarioTable, scenario_table
 from ._features import features
 from ._knn import K_GRID, choose_k, make_classifier
 

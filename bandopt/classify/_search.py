@@ -34,9 +34,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..forward import ScenarioTable, radiance_from_response
 from ..search._problem import Space
 from ..sensor import BandSet, SensorParams, slit_super_gaussian
-from ._data import ScenarioTable, radiance_from_response
 from ._features import features
 from ._knn import K_GRID, neighbour_labels, vote_proba
 from ._metrics import macro_f1_int

@@ -53,8 +53,8 @@ def run(args) -> int:
     import json
 
     from ..classify import TRAINING_SCENARIOS, available_atmospheres, evaluate_band_set
-    from ..classify._data import scenario_table
     from ..classify._evaluate import load_band_set, summary
+    from ..forward import scenario_table
     from ..scene import build_scenarios
 
     band_sets = [(src, load_band_set(src)) for src in args.bands]

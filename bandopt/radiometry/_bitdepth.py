@@ -26,9 +26,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..forward import cropped
-from ..scene import BandTerms, ScenarioSet, band_terms, band_weights, lamp_scenes
-from ..sensor import SensorParams, noise_electrons, photon_weights
+from ..forward import band_measurement
+from ..scene import ScenarioSet
+from ..sensor import SensorParams
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,32 +48,20 @@ class Measurements:
     lamp_of: np.ndarray
 
 
-def _no_uplight(t: BandTerms) -> BandTerms:
-    return BandTerms(t.lamp_surface, None, t.moon, t.path, t.fire, t.illuminance_lx)
-
-
 def measure(
     scen: ScenarioSet, bands, params: SensorParams | None = None, *, seed: int = 0
 ) -> Measurements:
-    """Noise-free and noisy band radiances of every lamp scene (module
-    docstring); noise draws from `numpy.random.default_rng(seed)`."""
-    params = SensorParams() if params is None else params
-    f, resp = cropped(scen, bands)
-    clean = np.asarray(
-        lamp_scenes(_no_uplight(band_terms(f, band_weights(resp, f.wavelength_nm))))
-    )
-    pw = photon_weights(resp, f.wavelength_nm, params, None)
-    electrons = lamp_scenes(_no_uplight(band_terms(f, pw)))
-    resp_e = jnp.sum(pw, axis=-1)
-    b = clean.shape[-1]
-    clean = clean.reshape(-1, b)
-    electrons = jnp.reshape(electrons, (-1, b))
-    z = np.random.default_rng(seed).standard_normal(clean.shape)
-    noisy = (electrons + noise_electrons(electrons, params) * z) / resp_e[None, :]
+    """Noise-free and noisy band radiances of every lamp scene:
+    `bandopt.forward.band_measurement` (module docstring), draws
+    `bandopt.forward.noise_draws(seed, scenes, bands)`."""
+    m = band_measurement(scen, bands, sensor=params, noise=True, key=seed)
+    b = m.clean.shape[-1]
+    clean = np.asarray(m.clean).reshape(-1, b)
+    noisy = np.asarray(m.radiance).reshape(-1, b)
     lamp_of = np.repeat(
         np.arange(len(scen.lamp_ids)), clean.shape[0] // len(scen.lamp_ids)
     )
-    return Measurements(clean, np.asarray(noisy), np.asarray(resp_e), lamp_of)
+    return Measurements(clean, noisy, np.asarray(m.responsivity_e), lamp_of)
 
 
 # ------------------------------------------------------------------------------

@@ -39,9 +39,8 @@ from ..estimate import (
     metric_mask,
     resolve_target,
 )
-from ..scene import band_weights
-from ..sensor import BandSet, SensorParams, noise_electrons, slit_super_gaussian
-from ..sensor._photon import _photon_weights
+from ..forward import dense_spectra, noise_draws, radiance_from_response
+from ..sensor import BandSet, SensorParams, slit_super_gaussian
 
 
 PAN_EDGES_NM = (400.0, 880.0)
@@ -198,7 +197,7 @@ class Problem(eqx.Module):
         self, response: Float[Array, "b w"]
     ) -> Float[Array, "n b"]:
         """Band-averaged radiance of every scene (noisy if the problem has noise)."""
-        return band_radiance(
+        return radiance_from_response(
             self.toa, self.wavelength_nm, response, self.noise_z, self.sensor
         )
 
@@ -224,32 +223,12 @@ class Problem(eqx.Module):
         return jnp.sum(self.residuals(centre_nm, fwhm_nm, shape_k) ** 2)
 
 
-def band_radiance(toa, wavelength_nm, response, noise_z=None, sensor=None):
-    """Band-averaged radiance `(N, b)` of spectra `toa (N, w)` for `response (b, w)`:
-    one dense matmul. With `noise_z (N, b)` (standard normal draws) photon noise
-    of `sensor` is added in electrons and converted back with the flat-field
-    responsivity (`bandopt.forward.simulate`'s model). [W m⁻² sr⁻¹ nm⁻¹]"""
-    hi = jax.lax.Precision.HIGHEST
-    if noise_z is None:
-        wts = band_weights(response, wavelength_nm)
-        return jnp.matmul(toa, wts.T, precision=hi)
-    pw = _photon_weights(response, wavelength_nm, sensor, None)
-    electrons = jnp.matmul(toa, pw.T, precision=hi)
-    sigma = noise_electrons(electrons, sensor)
-    resp_e = jnp.sum(pw, axis=-1)
-    return (electrons + sigma * noise_z) / resp_e[None, :]
-
-
 def scenario_spectra(scen) -> np.ndarray:
     """TOA spectral radiance of every lamp scene, `(l, q, w)` with `q` the
-    scenes per lamp (surface x atmosphere x Moon x class, C order). Built with
-    the factorised model (`band_terms` with identity weights, i.e. sampling
-    each wavelength); only for small search sets."""
-    from ..scene import band_terms, lamp_scenes
-
-    f = scen.factors
-    eye = jnp.eye(f.wavelength_nm.shape[0], dtype=f.lamp.dtype)
-    out = lamp_scenes(band_terms(f, eye))  # (l, s, a, m, c, w)
+    scenes per lamp (surface x atmosphere x Moon x class, C order):
+    `bandopt.forward.dense_spectra` grouped by lamp; only for small search
+    sets."""
+    out = dense_spectra(scen)  # (l, s, a, m, c, w)
     return np.asarray(out).reshape(out.shape[0], -1, out.shape[-1])
 
 
@@ -284,7 +263,9 @@ def make_problem(
     `toa_lamp` is `(l, q, w)` from `scenario_spectra`. Lamps outside `lamps`
     are dropped before anything is computed, so a held-out lamp cannot leak
     into the search. `noise`: photon noise (`sensor`, default Table 2.3);
-    `noise_radiance` rescales every scene to that mean radiance first.
+    `noise_radiance` rescales every scene to that mean radiance first; the
+    draws are `bandopt.forward.noise_draws(seed, ...)` over all scenes of
+    `toa_lamp`, so a scene's draw does not depend on which lamps are used.
     `pad_to`: append zero-weight zero rows up to this many scenes, so problems
     of different folds share one compiled loss.
     """
@@ -326,9 +307,11 @@ def make_problem(
     n_b = space.n_free + (fixed is not None)
     z = None
     if noise:
-        z = jnp.asarray(
-            np.random.default_rng(seed).standard_normal((toa.shape[0], n_b))
-        )
+        # draws of every scene of toa_lamp, then the used lamps' rows: a scene
+        # sees the same draw here as in every other caller with this seed
+        n_l = toa_lamp.shape[0]
+        z = noise_draws(seed, n_l * q, n_b).reshape(n_l, q, n_b)[lamps]
+        z = jnp.pad(z.reshape(-1, n_b), ((0, pad), (0, 0)))
         sensor = SensorParams() if sensor is None else sensor
     return Problem(
         wavelength_nm=wl,

@@ -43,6 +43,7 @@ from ..estimate import (
     log_ratio_features,
     weighted_standardisation,
 )
+from ..forward import noise_draws, radiance_from_response
 
 
 MIN_FWHM_NM = 20.0
@@ -158,9 +159,7 @@ def make_batch_data(
     z = None
     sensor = None
     if noise:
-        z = jnp.asarray(
-            np.random.default_rng(seed).standard_normal((toa.shape[0], n_b)), dtype
-        )
+        z = noise_draws(seed, toa.shape[0], n_b, dtype)
         sensor = SensorParams()
     groups: list[list[int]] = []
     for m in range(3):  # metrics with identical validity share one ridge system
@@ -192,9 +191,7 @@ def make_batch_data(
 
 
 def _radiance(data: BatchData, response):
-    from ._problem import band_radiance
-
-    return band_radiance(
+    return radiance_from_response(
         data.toa, data.wavelength_nm, response, data.noise_z, data.sensor
     )
 

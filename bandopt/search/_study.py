@@ -76,17 +76,15 @@ def f1_outer(ctx, rad, train, inner, test) -> tuple[np.ndarray, np.ndarray]:
 def design_snr(ctx, bands) -> float:
     """Median over scenes (signal > 0 in every band) of the weakest band's
     shot-noise SNR at the context's signal level (thesis Table 2.3 sensor)."""
-    from ..sensor import SensorParams, noise_electrons
-    from ..sensor._photon import _photon_weights
+    from ..sensor import SensorParams, noise_electrons, signal_electrons
 
     wl = jnp.asarray(ctx.wavelength_nm)
-    pw = np.asarray(_photon_weights(bands.response(wl), wl, SensorParams(), None))
     toa = ctx.toa.reshape(-1, ctx.toa.shape[-1])
     if ctx.noise_radiance is not None:
         from ._task import _scale_to
 
         toa = _scale_to(toa, ctx.wavelength_nm, ctx.noise_radiance)
-    e = toa @ pw.T
+    e = np.asarray(signal_electrons(toa, bands.response(wl), wl, SensorParams()))
     ok = (e > 0).all(axis=1)
     snr = e[ok] / np.asarray(noise_electrons(jnp.asarray(e[ok]), SensorParams()))
     return float(np.median(snr.min(axis=1))) if ok.any() else 0.0

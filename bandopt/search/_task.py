@@ -24,6 +24,7 @@ from ..estimate import (
     lamp_truth,
     resolve_target,
 )
+from ..forward import band_radiance
 
 
 PRESETS = {
@@ -77,30 +78,27 @@ class Context:
     def radiance(self, bands, *, seed: int = 0) -> np.ndarray:
         """Band-averaged radiance `(N, b)` of every scene for any band set
         (`BandSet` or `TabulatedBands`; response on the 380-900 nm grid,
-        averaged over its on-grid part), noisy when the context has noise."""
-        from ..sensor import SensorParams
-        from ._problem import band_radiance
+        averaged over its on-grid part), noisy when the context has noise.
 
-        resp = jnp.asarray(bands.response(jnp.asarray(self.wavelength_nm)))
+        Evaluation draws come from `seed + EVALUATION_SEED_OFFSET`, so a band
+        set found with the search draws of `seed` is scored on fresh noise."""
         toa = self.toa.reshape(-1, self.toa.shape[-1])
         if self.noise_radiance is not None:
             toa = _scale_to(toa, self.wavelength_nm, self.noise_radiance)
-        z = None
-        if self.noise:
-            z = jnp.asarray(
-                np.random.default_rng(seed + 7919).standard_normal(
-                    (toa.shape[0], resp.shape[0])
-                )
-            )
         return np.asarray(
             band_radiance(
-                jnp.asarray(toa),
-                jnp.asarray(self.wavelength_nm),
-                resp,
-                z,
-                SensorParams() if self.noise else None,
+                toa,
+                bands,
+                wavelength_nm=self.wavelength_nm,
+                noise=self.noise,
+                key=seed + EVALUATION_SEED_OFFSET,
             )
         )
+
+
+EVALUATION_SEED_OFFSET = 7919
+"""`Context.radiance(seed=s)` draws its noise from seed `s + 7919`: held-out
+scoring never reuses the draws the search of seed `s` was fitted on."""
 
 
 def _scale_to(toa, wl, level):
