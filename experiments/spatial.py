@@ -257,6 +257,26 @@ def _recommend(summary: dict, cfg) -> None:
     )
 
 
+def recommend_from_summary(out: Path) -> int:
+    """Rewrite the spatial part of results/recommendation.json from the
+    `summary.json` of a finished run, by the same rule as `main`."""
+    path = out / "summary.json"
+    if not path.is_file():
+        raise SystemExit(f"{path}: no spatial summary; run the experiment first.")
+    summary = json.loads(path.read_text())
+    fields = {f.name for f in dataclasses.fields(Config)}
+    cfg = Config(
+        **{
+            k: tuple(v) if isinstance(v, list) else v
+            for k, v in summary["config"].items()
+            if k in fields
+        }
+    )
+    _recommend(summary, cfg)
+    print(f"wrote key 'spatial' of results/recommendation.json from {path}")
+    return 0
+
+
 def _aggregate(rows):
     """Mean over phases per scene and GSD."""
     groups = {}
@@ -554,7 +574,15 @@ def cli(argv=None) -> int:
     p.add_argument("--quick", action="store_true", help="coarser grid, fewer scenes")
     p.add_argument("--out", default="results/spatial")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--recommend-only",
+        action="store_true",
+        help="only (re)write key 'spatial' of results/recommendation.json from "
+        "the existing OUT/summary.json (no rendering)",
+    )
     args = p.parse_args(argv)
+    if args.recommend_only:
+        return recommend_from_summary(Path(args.out))
     bandopt.configure()
     cfg = Config(seed=args.seed, **(QUICK if args.quick else {}))
     s = main(cfg, Path(args.out))

@@ -120,6 +120,17 @@ def test_recommend_bits_rule():
     rows[4] = row(14, 1.01)
     out = recommend_bits(rows)
     assert out["recommended_linear_bits"] == 12 and out["agrees_with_thesis_ge_12_bits"]
+    # companded schemes follow the same rule; the scheme needing fewer bits wins
+    comp = [
+        {**row(8, 1.2), "scheme": "sqrt"}, {**row(10, 1.0), "scheme": "sqrt"},
+        {**row(8, 1.0), "scheme": "two-gain"}, {**row(10, 1.3), "scheme": "two-gain"},
+        {**row(12, 1.0), "scheme": "two-gain"},
+    ]
+    out = recommend_bits(rows + comp)
+    assert out["companded_bits_per_scheme"] == {"sqrt": 10, "two-gain": 12}
+    assert out["recommended_companded_bits"] == 10
+    assert out["recommended_companding"] == "sqrt"
+    assert out["recommended_linear_bits"] == 12
 
 
 def test_quantisation_error_shrinks_with_bits():

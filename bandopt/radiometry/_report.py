@@ -361,29 +361,40 @@ def recommend_bits(
     """Smallest linear bit depth whose LER, G and CCT test MAE are within
     `rel_tol` (relative) of the unquantised reference (photon noise clipped to
     the limits, row scheme "clip"; else photon noise alone, "none") and whose
-    macro F1 is at most `f1_tol` below it, for it and every larger depth."""
+    macro F1 is at most `f1_tol` below it, for it and every larger depth. The
+    same rule per companding scheme (two gain stages, square root); the
+    companded recommendation is the scheme needing the fewest bits."""
     refs = {r["scheme"]: r for r in rows if r["scheme"] in ("clip", "none")}
     ref = refs.get("clip", refs.get("none"))
-    ok_bits = []
-    for r in sorted(
-        (r for r in rows if r["scheme"] == "linear"), key=lambda r: r["bits"]
-    ):
+
+    def passes(r) -> bool:
         ok = all(
             r[f"{m}_mae"] <= ref[f"{m}_mae"] * (1 + rel_tol)
             for m in ("LER", "G", "CCT")
         )
-        ok &= r["macro_f1"] >= ref["macro_f1"] - f1_tol
-        if ok:
-            ok_bits.append(r["bits"])
-    # the smallest depth from which every larger tested depth also passes
-    linear = sorted(r["bits"] for r in rows if r["scheme"] == "linear")
-    rec = None
-    for n in linear:
-        if all(m in ok_bits for m in linear if m >= n):
-            rec = n
-            break
+        return ok and r["macro_f1"] >= ref["macro_f1"] - f1_tol
+
+    def smallest(scheme) -> tuple[int | None, list[int]]:
+        """The smallest depth from which every larger tested depth passes."""
+        tested = sorted(
+            (r for r in rows if r["scheme"] == scheme), key=lambda r: r["bits"]
+        )
+        ok = [r["bits"] for r in tested if passes(r)]
+        bits = [r["bits"] for r in tested]
+        return next((n for n in bits if all(m in ok for m in bits if m >= n)), None), ok
+
+    rec, ok_bits = smallest("linear")
+    schemes = sorted(
+        {r["scheme"] for r in rows} - {"linear", "clip", "none", "none-clean"}
+    )
+    companded = {s: smallest(s)[0] for s in schemes}
+    found = {k: v for k, v in companded.items() if v is not None}
+    best = min(found, key=lambda k: (found[k], k)) if found else None
     return {
         "recommended_linear_bits": rec,
+        "recommended_companded_bits": None if best is None else found[best],
+        "recommended_companding": best,
+        "companded_bits_per_scheme": companded,
         "rule": (
             "smallest linear bit depth from which LER, G and CCT class-balanced "
             f"test MAE stay within {100 * rel_tol:g} % of the unquantised "
@@ -673,7 +684,22 @@ def run(
                 "bit_depth": None
                 if bits_rec is None
                 else bits_rec["recommended_linear_bits"],
+                "bit_depth_companded": None
+                if bits_rec is None
+                else bits_rec["recommended_companded_bits"],
+                "companding": None
+                if bits_rec is None
+                else bits_rec["recommended_companding"],
                 "bit_depth_rule": None if bits_rec is None else bits_rec["rule"],
+                "bands": [
+                    {"name": n, "centre_nm": float(c), "fwhm_nm": float(w)}
+                    for n, c, w in zip(
+                        bands.names,
+                        np.asarray(bands.centre_nm).tolist(),
+                        np.asarray(bands.fwhm_nm).tolist(),
+                        strict=True,
+                    )
+                ],
                 "bits_linear_step_le_ner_at_limit": summary[
                     "bits_linear_step_le_ner_at_limit"
                 ],
