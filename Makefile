@@ -5,9 +5,11 @@ BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
 export JAX_PLATFORMS ?= cpu
 export MPLBACKEND ?= Agg
+SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: run test test-slow lint bench atmospheres surfaces library ler g cct sweep \
-        compare classify radiometry spatial noise-aware clean
+        compare classify radiometry spatial noise-aware report check-report docs \
+        tutorial clean
 
 $(STAMP): pyproject.toml requirements.lock
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
@@ -15,7 +17,7 @@ $(STAMP): pyproject.toml requirements.lock
 	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test]'
 	touch $@
 
-run: $(STAMP)  ## set up, then the default band search + comparison with reference sensors
+run: $(STAMP)  ## set up, then the default band search + comparison with reference sensors (writes recommendation.json "spectral")
 	$(BIN)/python -m experiments.search run
 
 test: $(STAMP)  ## set up, then the fast test suite (no 6S, no long sweeps, no Monte Carlo)
@@ -60,15 +62,34 @@ compare: $(STAMP)
 noise-aware: $(STAMP)
 	$(BIN)/python -m experiments.noise_aware
 
-classify: $(STAMP)
+classify: $(STAMP)  ## lamp-type classification (writes recommendation.json "classification")
 	$(BIN)/python -m experiments.classify
 
-radiometry: $(STAMP)
+radiometry: $(STAMP)  ## detection limits, saturation, bit depth (writes recommendation.json "radiometry")
 	$(BIN)/python -m experiments.radiometry
 
-spatial: $(STAMP)
+spatial: $(STAMP)  ## GSD needed, overlapping lamp types (writes recommendation.json "spatial")
 	$(BIN)/python -m experiments.spatial
 	$(BIN)/python -m experiments.spatial_overlap
+
+report: $(STAMP)  ## results/report/index.html from results/ only (fails if two results files disagree)
+	$(BIN)/bandopt report --out results/report
+
+check-report: report  ## open the report in headless Chromium: figures load, tables have rows, screenshot
+	command -v chromium >/dev/null && command -v chromedriver >/dev/null || \
+	  { $(SUDO) apt-get update -q && DEBIAN_FRONTEND=noninteractive $(SUDO) \
+	    apt-get install -y -q chromium chromium-driver; }
+	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test,browser]'
+	$(BIN)/python -m experiments.check_report --report results/report/index.html \
+	  --screenshot results/report/screenshot.png
+
+docs: $(STAMP)  ## user guide + API reference from the docstrings (Sphinx, offline) -> docs/_build/html
+	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test,docs]'
+	$(BIN)/python -m sphinx -b html -q docs docs/_build/html
+	@echo "open docs/_build/html/index.html"
+
+tutorial: $(STAMP)  ## the worked tutorial of docs/tutorial.rst (own lamp spectra, 3 sensors, the report)
+	$(BIN)/python -m experiments.tutorial --out tutorial-output
 
 clean:
 	rm -rf $(VENV) .pytest_cache

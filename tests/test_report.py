@@ -1,0 +1,238 @@
+"""The HTML report: structure, every number traced to its results file, drift
+between results files stops the build, missing experiments are named.
+
+The page is built from the committed `results/` (read only; a few seconds).
+Numbers are checked with a JSON-pointer resolver written here, independent of
+the one in `bandopt.report`.
+"""
+
+import base64
+import csv
+import json
+import math
+import shutil
+from html.parser import HTMLParser
+from pathlib import Path
+
+import pytest
+
+from bandopt.cli import main
+from bandopt.report import (
+    MAX_BYTES,
+    SECTIONS,
+    ReportDriftError,
+    build_report,
+    consistency_messages,
+)
+
+
+RESULTS = Path(__file__).resolve().parents[1] / "results"
+
+
+class _Page(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.sections, self.nums, self.imgs, self.tables = [], [], [], []
+        self._rows = None
+        self._in_body = False
+        self.missing_boxes = 0
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "section":
+            self.sections.append(a.get("id"))
+        elif tag == "a" and a.get("class") == "num":
+            self.nums.append(a)
+        elif tag == "img":
+            self.imgs.append(a)
+        elif tag == "table":
+            self._rows = 0
+        elif tag == "tbody":
+            self._in_body = True
+        elif tag == "tr" and self._in_body:
+            self._rows += 1
+        elif tag == "div" and a.get("class") == "missing":
+            self.missing_boxes += 1
+
+    def handle_endtag(self, tag):
+        if tag == "tbody":
+            self._in_body = False
+        elif tag == "table":
+            self.tables.append(self._rows)
+
+
+def _resolve(data, ptr):
+    for tok in ptr.split("/")[1:]:
+        tok = tok.replace("~1", "/").replace("~0", "~")
+        data = data[int(tok)] if isinstance(data, list) else data[tok]
+    return data
+
+
+def _load(path: Path):
+    if path.suffix == ".json":
+        return json.loads(path.read_text())
+    return list(csv.DictReader(path.read_text().splitlines()))
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    out = tmp_path_factory.mktemp("report")
+    res = build_report(RESULTS, out, strict=False)
+    page = _Page()
+    page.feed(res.path.read_text())
+    return res, page
+
+
+def test_every_section_present_in_order(built):
+    _, page = built
+    assert page.sections == [sid for sid, _, _ in SECTIONS]
+
+
+def test_every_number_comes_from_its_file(built):
+    res, page = built
+    assert len(page.nums) > 300  # Table 5.1, comparison, band count, radiometry, ...
+    cache = {}
+    for a in page.nums:
+        src = a["data-src"]
+        if src not in cache:
+            cache[src] = _load(RESULTS / src)
+        value = _resolve(cache[src], a["data-ptr"])
+        # the link goes to the same file (relative to the report)
+        assert (res.path.parent / a["href"]).resolve() == (RESULTS / src).resolve()
+        shown = a["data-value"]
+        if value in (None, ""):
+            assert shown == "None"
+        elif math.isnan(float(value)):
+            assert math.isnan(float(shown))
+        else:
+            assert float(shown) == pytest.approx(float(value), rel=1e-12), (src, a)
+
+
+def test_table51_carries_every_band_and_sensor_property(built):
+    res, page = built
+    rec = json.loads((RESULTS / "recommendation.json").read_text())
+    text = res.path.read_text()
+    body = text[text.index('class="table51"'):]
+    body = body[: body.index("</table>")]
+    for band in rec["spectral"]["bands"]:
+        assert f"<td>{band['name']}</td>" in body
+    ptrs = {a["data-ptr"] for a in page.nums if a["data-src"] == "recommendation.json"}
+    assert "/radiometry/bit_depth" in ptrs
+    if "spatial" in rec:
+        assert "/spatial/median_gsd_needed_m" in ptrs
+    limits = [a for a in page.nums if a["data-src"] == "radiometry/limits.csv"]
+    assert any(a["data-ptr"].endswith("/detection_limit_w_m2_sr_nm") for a in limits)
+    assert any(a["data-ptr"].endswith("/snr_at_limit") for a in limits)
+
+
+def test_figures_embedded_and_tables_filled(built):
+    res, page = built
+    assert res.bytes < MAX_BYTES
+    assert len(page.imgs) >= 10
+    for img in page.imgs:
+        assert img["src"].startswith("data:image/png;base64,")
+        raw = base64.b64decode(img["src"].split(",", 1)[1])
+        assert raw[:8] == b"\x89PNG\r\n\x1a\n"
+    assert page.tables and all(n > 0 for n in page.tables)
+    assert "http://" not in res.path.read_text().replace("http://www.w3", "")
+
+
+def test_experiment_not_run_is_named_missing(built):
+    res, page = built
+    if not (RESULTS / "estimate").is_dir():
+        assert "estimate" in res.missing
+        assert page.missing_boxes >= 1
+        assert "MISSING" in res.path.read_text()
+
+
+def test_committed_results_agree_with_each_other():
+    """The real guard: on main, no two results files disagree. A failure names
+    the stale file and the command that regenerates it."""
+    assert consistency_messages(RESULTS) == []
+
+
+# ----------------------------------------------------------------------------- drift
+SMALL = (
+    "recommendation.json",
+    "README.md",
+    "radiometry/limits.csv",
+    "radiometry/summary.json",
+    "spatial/summary.json",
+    "search/compare.json",
+    "search/recommended_bands.json",
+    "search/stability.json",
+    "search/tolerance.json",
+    "classify/summary.json",
+)
+
+
+@pytest.fixture()
+def small(tmp_path):
+    for rel in SMALL:
+        if (RESULTS / rel).is_file():
+            (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy(RESULTS / rel, tmp_path / rel)
+    assert consistency_messages(tmp_path) == consistency_messages(RESULTS)
+    return tmp_path
+
+
+def test_drift_in_a_csv_number_stops_the_build(small):
+    path = small / "radiometry" / "limits.csv"
+    rows = list(csv.DictReader(path.read_text().splitlines()))
+    i = next(i for i, r in enumerate(rows) if r["band_set"] == "ours")
+    rows[i]["detection_limit_w_m2_sr_nm"] = str(
+        2 * float(rows[i]["detection_limit_w_m2_sr_nm"])
+    )
+    with path.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    with pytest.raises(ReportDriftError, match=r"limits\.csv") as err:
+        build_report(small, small / "out")
+    assert any(rows[i]["band"] in m for m in err.value.messages)
+    assert not (small / "out" / "index.html").exists()
+
+
+def test_missing_gsd_and_readme_quote_stop_the_build(small):
+    rec = json.loads((small / "recommendation.json").read_text())
+    rec.pop("spatial", None)
+    (small / "recommendation.json").write_text(json.dumps(rec))
+    readme = (small / "README.md").read_text()
+    (small / "README.md").write_text(
+        readme + "\n## Radiometry (x)\n\nDetection limits 5e-8 to 2e-7 W\n"
+        if "Detection limits" not in readme
+        else readme.replace("Detection limits ", "Detection limits 9", 1)
+    )
+    msgs = consistency_messages(small)
+    assert any("no 'spatial' part" in m and "--recommend-only" in m for m in msgs)
+    assert any("README.md quotes detection limits" in m for m in msgs)
+
+
+def test_radiometry_of_another_band_set_is_stale(small):
+    rec = json.loads((small / "recommendation.json").read_text())
+    rec["spectral"]["bands"] = rec["spectral"]["bands"][1:]
+    (small / "recommendation.json").write_text(json.dumps(rec))
+    assert any("re-run `make radiometry`" in m for m in consistency_messages(small))
+
+
+def test_cli_report_exit_codes(small, tmp_path, capsys):
+    rec = json.loads((small / "recommendation.json").read_text())
+    rec["spectral"]["set"] = "not-the-recommended-one"
+    (small / "recommendation.json").write_text(json.dumps(rec))
+    assert main(["report", "--results", str(small), "--out", str(tmp_path / "o")]) == 3
+    assert "pareto/recommended" in capsys.readouterr().err
+
+
+def test_empty_results_names_every_experiment_missing(tmp_path, capsys):
+    (tmp_path / "res").mkdir()
+    rc = main(["report", "--results", str(tmp_path / "res"), "--out",
+               str(tmp_path / "out"), "--json"])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    from bandopt.report import EXPERIMENTS
+
+    assert set(out["missing"]) == {e.key for e in EXPERIMENTS}
+    page = _Page()
+    page.feed((tmp_path / "out" / "index.html").read_text())
+    assert page.sections == [sid for sid, _, _ in SECTIONS]
+    assert page.missing_boxes >= len(EXPERIMENTS)
