@@ -35,6 +35,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
+from .photometry import CCT_MAX_K, CCT_MIN_K
+
 
 METRICS: tuple[str, ...] = ("LER", "G", "CCT")
 """Estimated metrics, in the order of every `(..., 3)` array here."""
@@ -64,7 +66,7 @@ well conditioned; the reported models re-choose it from `LAMBDA_GRID`)."""
 MIRED = 1e6
 """`mired = MIRED / CCT[K]`."""
 
-CCT_RANGE_K = (1000.0, 25000.0)
+CCT_RANGE_K = (CCT_MIN_K, CCT_MAX_K)
 """Predicted CCTs are clipped to the range where a CCT is meaningful
 (`photometry.CCT_MIN_K`-`CCT_MAX_K`), i.e. mired to 40-1000. [K]"""
 

@@ -18,6 +18,12 @@ import numpy as np
 Labels = Sequence[str] | np.ndarray
 """Class labels, one per lamp."""
 
+N_OUTER_FOLDS = 3
+"""Outer folds of every nested split in bandopt (search, classification,
+radiometry): each scored lamp is tested once, on a third of the lamps."""
+N_INNER_FOLDS = 2
+"""Inner folds (model choices) within each outer training set."""
+
 
 def stratified_lamp_folds(classes: Labels, n_folds: int, seed: int) -> list[np.ndarray]:
     """Deal lamps (indices into `classes`) into `n_folds` test folds, stratified
@@ -51,7 +57,11 @@ class NestedSplit:
 
 
 def nested_lamp_splits(
-    classes: Labels, *, n_outer: int = 3, n_inner: int = 2, seed: int = 0
+    classes: Labels,
+    *,
+    n_outer: int = N_OUTER_FOLDS,
+    n_inner: int = N_INNER_FOLDS,
+    seed: int = 0,
 ) -> list[NestedSplit]:
     """Nested lamp-grouped, class-stratified splits (indices into `classes`).
 

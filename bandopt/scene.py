@@ -53,7 +53,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .spectra import GRID_1NM, trapezoid_weights
+from .spectra import GRID_1NM, planck_radiance, trapezoid_weights
 
 
 LIGHTING_CLASSES: Mapping[str, tuple[str, float]] = MappingProxyType(
@@ -94,16 +94,6 @@ def class_illuminance_lx(name: str, *, q0_per_sr: float = Q0_DRY_R3_PER_SR) -> f
         raise ValueError(f"q0_per_sr must be > 0, got {q0_per_sr!r}.")
     kind, value = LIGHTING_CLASSES[key]
     return value if kind == "illuminance_lx" else value / q0_per_sr
-
-
-def planck_radiance(
-    wavelength_nm: Float[Array, " w"], temperature_k: Float[Array, " f"]
-) -> Float[Array, "f w"]:
-    """Blackbody spectral radiance, Planck's law (`Planck1901`). [W m⁻² sr⁻¹ nm⁻¹]"""
-    h, c, k = 6.62607015e-34, 2.99792458e8, 1.380649e-23
-    lam = jnp.asarray(wavelength_nm)[None, :] * 1e-9
-    t = jnp.asarray(temperature_k)[:, None]
-    return 2 * h * c**2 / lam**5 / jnp.expm1(h * c / (lam * k * t)) * 1e-9
 
 
 @dataclasses.dataclass(frozen=True)

@@ -8,6 +8,7 @@ Resampling is linear interpolation. Outside the measured range a spectrum is
 from typing import Literal
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
@@ -18,6 +19,32 @@ GRID_1NM: np.ndarray = np.arange(380.0, 901.0, 1.0)
 
 VISIBLE_NM: tuple[float, float] = (380.0, 780.0)
 """Visible range used for photometric integrals. [nm]"""
+
+PLANCK_J_S: float = 6.62607015e-34
+"""Planck constant (exact, SI 2019). [J s]"""
+SPEED_OF_LIGHT_M_S: float = 299792458.0
+"""Speed of light in vacuum (exact). [m s-1]"""
+BOLTZMANN_J_K: float = 1.380649e-23
+"""Boltzmann constant (exact, SI 2019). [J K-1]"""
+
+
+def planck_radiance(
+    wavelength_nm: Float[ArrayLike, " w"], temperature_k: Float[ArrayLike, "*t"]
+) -> Float[ArrayLike, "*t w"]:
+    """Blackbody spectral radiance, Planck's law (`Planck1901`):
+    `B = 2 h c² / λ⁵ / (exp(h c / (λ k T)) - 1)`, per nm. [W m⁻² sr⁻¹ nm⁻¹]
+
+    The one implementation in bandopt. Broadcasts `temperature_k` (any shape)
+    against `wavelength_nm` (last axis). NumPy in, NumPy out; a JAX array in
+    either argument gives a JAX array.
+    """
+    jax_in = any(isinstance(a, jax.Array) for a in (wavelength_nm, temperature_k))
+    xp = jnp if jax_in else np
+    h, c, k = PLANCK_J_S, SPEED_OF_LIGHT_M_S, BOLTZMANN_J_K
+    t = xp.asarray(temperature_k, dtype=float)[..., None]
+    lam = xp.asarray(wavelength_nm, dtype=float) * 1e-9  # [m]
+    lam = xp.reshape(lam, (1,) * (t.ndim - 1) + lam.shape)
+    return 2 * h * c**2 / lam**5 / xp.expm1(h * c / (lam * k * t)) * 1e-9
 
 
 def trapezoid_weights(wavelength_nm: Float[ArrayLike, " w"]) -> Float[Array, " w"]:

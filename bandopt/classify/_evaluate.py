@@ -13,6 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..folds import nested_lamp_splits
 from ..forward import ScenarioTable, resolve_level
 from ._features import deduplicate, features
 from ._knn import K_GRID, REJECT_THRESHOLD, choose_k, make_classifier, reject
@@ -34,9 +35,7 @@ def class_order(level: str, present: Sequence[str] | np.ndarray) -> list[str]:
 
 def outer_splits(table: ScenarioTable, seed: int = 0):
     """The nested lamp splits of the table's lamps, stratified by level 2."""
-    from ..folds import nested_lamp_splits
-
-    return nested_lamp_splits(table.level2, n_outer=3, n_inner=2, seed=seed)
+    return nested_lamp_splits(table.level2, seed=seed)
 
 
 def usable_rows(x: np.ndarray, table: ScenarioTable, noise: bool) -> np.ndarray:

@@ -77,7 +77,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..spectra import GRID_1NM
+from ..photometry import CCT_MAX_K, CCT_MIN_K, K_M_LM_PER_W
+from ..spectra import GRID_1NM, planck_radiance
 from . import nir
 from .loaders import SpectrumWarning, read_prn
 
@@ -658,11 +659,8 @@ def _cct_duv(w, s):
 
 
 def planck_spectrum(wavelength_nm: np.ndarray, temperature_k: float) -> np.ndarray:
-    """Planck's law, spectral radiance of a blackbody (`Planck1901`).
-    [W m⁻² sr⁻¹ nm⁻¹]"""
-    h, c, k = 6.62607015e-34, 2.99792458e8, 1.380649e-23
-    lam = np.asarray(wavelength_nm, float) * 1e-9
-    return 2 * h * c**2 / lam**5 / np.expm1(h * c / (lam * k * temperature_k)) * 1e-9
+    """Planck's law: `bandopt.spectra.planck_radiance`. [W m⁻² sr⁻¹ nm⁻¹]"""
+    return planck_radiance(np.asarray(wavelength_nm, float), temperature_k)
 
 
 MODELLED_INCANDESCENT_K = (2400.0, 2600.0, 2800.0, 3000.0, 3200.0)
@@ -674,7 +672,8 @@ def _per_lumen(wavelength_nm, values):
 
     v = SDS_LEFS["CIE 1924 Photopic Standard Observer"]
     vis = (wavelength_nm >= 380.0) & (wavelength_nm <= 780.0)
-    lum = 683.0 * np.trapezoid(values[vis] * v[wavelength_nm[vis]], wavelength_nm[vis])
+    w = wavelength_nm[vis]
+    lum = K_M_LM_PER_W * np.trapezoid(values[vis] * v[w], w)
     return values / lum
 
 
@@ -718,7 +717,7 @@ def _classify(r: _Raw, m: dict) -> tuple[str, str | None, str | None, str | None
     """(level1, level2, subtype, excluded) of one spectrum by the typology rules."""
     cct, duv = m["cct"], m["duv"]
     level2, subtype, excluded = r.level2, r.subtype, None
-    white = abs(duv) <= COLOURED_DUV and 1000.0 <= cct <= 25000.0
+    white = abs(duv) <= COLOURED_DUV and CCT_MIN_K <= cct <= CCT_MAX_K
     if level2 is None:  # an LED: amber, white (warm/cool) or coloured
         lo, hi = AMBER_DOMINANT_NM
         if m["purity"] >= AMBER_MIN_PURITY and lo <= m["dominant_nm"] <= hi:

@@ -58,6 +58,7 @@ from importlib import resources
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from ..photometry import K_M_LM_PER_W
 from ..spectra import GRID_1NM, VISIBLE_NM, trapezoid_weights
 
 
@@ -81,8 +82,6 @@ MOON_SOLID_ANGLE_SR = 6.4177e-5
 MEAN_MOON_DISTANCE_KM = 384400.0
 """ROLO's standard observer-Moon distance. [km]"""
 
-K_M_LM_PER_W = 683.0
-"""Maximum luminous efficacy of photopic vision, K_m. [lm W⁻¹]"""
 
 _ROLO_CSV = "rolo_kieffer_stone_2005_table4.csv"
 

@@ -47,6 +47,8 @@ import functools
 import numpy as np
 from scipy.optimize import nnls
 
+from ..spectra import planck_radiance
+
 
 EXTENSION_START_NM = 780.0
 EXTENSION_END_NM = 900.0
@@ -298,8 +300,7 @@ def calibration(
 
 
 def _planck(wavelength_nm, temperature_k):
-    c2 = 1.438776877e7  # [nm K], second radiation constant (CODATA 2018)
-    return wavelength_nm**-5.0 / np.expm1(c2 / (wavelength_nm * temperature_k))
+    return planck_radiance(wavelength_nm, temperature_k)
 
 
 def _extend_planck(w, s, w_new):

@@ -85,7 +85,7 @@ def _estimation_scores(radiance, scen, lamp_of, classes, seed, standin=False):
     """Class-balanced test MAE per metric over lamp-grouped outer folds."""
     from ..folds import class_balanced_mae, nested_lamp_splits
 
-    splits = nested_lamp_splits(classes, n_outer=3, n_inner=2, seed=seed)
+    splits = nested_lamp_splits(classes, seed=seed)
     spectra = np.asarray(scen.factors.lamp)
     grid = np.asarray(scen.factors.wavelength_nm)
     try:
@@ -185,14 +185,14 @@ def _standin_f1(radiance, lamp_of, classes, seed):
     from sklearn.metrics import f1_score
     from sklearn.neighbors import KNeighborsClassifier
 
-    from ..folds import stratified_lamp_folds
+    from ..folds import N_OUTER_FOLDS, stratified_lamp_folds
 
     r = np.maximum(radiance, 0.0)
     tot = r.sum(1, keepdims=True)
     x = np.where(tot > 0, r / np.where(tot > 0, tot, 1.0), 1.0 / r.shape[1])
     y = classes[lamp_of]
     yt, yp = [], []
-    for test in stratified_lamp_folds(classes, 3, seed):
+    for test in stratified_lamp_folds(classes, N_OUTER_FOLDS, seed):
         te = np.isin(lamp_of, test)
         clf = KNeighborsClassifier(5).fit(x[~te], y[~te])
         yt.append(y[te])

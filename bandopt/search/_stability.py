@@ -43,6 +43,7 @@ from ..estimate import (
     log_ratio_features,
     weighted_standardisation,
 )
+from ..folds import N_INNER_FOLDS, N_OUTER_FOLDS, nested_lamp_splits
 from ..forward import noise_draws, radiance_from_response
 
 
@@ -69,12 +70,15 @@ class Resample:
 
 
 def lamp_resamples(
-    classes, n_partitions: int, *, seed: int = 0, n_outer: int = 3, n_inner: int = 2
+    classes,
+    n_partitions: int,
+    *,
+    seed: int = 0,
+    n_outer: int = N_OUTER_FOLDS,
+    n_inner: int = N_INNER_FOLDS,
 ) -> list[Resample]:
     """`n_partitions` repeated lamp-grouped, class-stratified partitions into
     `n_outer` folds (seed `seed + 101·p`), flattened to resamples."""
-    from ..folds import nested_lamp_splits
-
     out = []
     for p in range(int(n_partitions)):
         for s in nested_lamp_splits(

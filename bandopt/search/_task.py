@@ -24,6 +24,7 @@ from ..estimate import (
     lamp_truth,
     resolve_target,
 )
+from ..folds import N_INNER_FOLDS, N_OUTER_FOLDS
 from ..forward import band_radiance
 
 
@@ -45,7 +46,7 @@ ATMOSPHERES_6S = (
     ("tropical", "continental", 10.0),
 )
 
-N_OUTER, N_INNER = 3, 2
+N_OUTER, N_INNER = N_OUTER_FOLDS, N_INNER_FOLDS
 
 
 def atmospheres_available() -> bool:

@@ -26,13 +26,9 @@ import jax.lax as lax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
-from ..spectra import trapezoid_weights
+from ..spectra import PLANCK_J_S, SPEED_OF_LIGHT_M_S, trapezoid_weights
 
 
-PLANCK_J_S: float = 6.62607015e-34
-"""Planck constant (exact, SI 2019). [J s]"""
-SPEED_OF_LIGHT_M_S: float = 299792458.0
-"""Speed of light in vacuum (exact). [m s-1]"""
 _GM_EARTH_M3_S2 = 3.986004418e14  # IERS geocentric gravitational constant
 _R_EARTH_M = 6371.0e3  # mean Earth radius
 
