@@ -38,6 +38,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .datasets.lamps import library
+from .names import validate_method
 from .scene import (
     BandTerms,
     Factors,
@@ -128,20 +129,13 @@ LEVELS = ("level1", "level2")
 CONDITIONS = ("surface", "atmosphere", "moon", "lighting_class")
 
 
+_LEVEL_ALIASES = {"1": "level1", "L1": "level1", "2": "level2", "L2": "level2"}
+
+
 def resolve_level(level) -> str:
-    """`"level1"`/`"level2"` (also accepts 1, 2, "L1", "level-2")."""
-    key = str(level).strip().lower().replace("-", "").replace("_", "").replace(" ", "")
-    key = {
-        "1": "level1",
-        "l1": "level1",
-        "level1": "level1",
-        "2": "level2",
-        "l2": "level2",
-        "level2": "level2",
-    }.get(key)
-    if key is None:
-        raise ValueError(f"Unknown level {level!r}; expected one of {list(LEVELS)}.")
-    return key
+    """`"level1"`/`"level2"` (also accepts 1, 2, "L1", "level-2"; case and
+    separators ignored)."""
+    return validate_method(level, LEVELS, "level", aliases=_LEVEL_ALIASES)
 
 
 @dataclasses.dataclass(frozen=True)

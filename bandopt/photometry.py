@@ -29,7 +29,6 @@ K_m), `Donatello2019` (G index), `Ohno2014` (Ohno 2013 CCT), `Robertson1968`,
 """
 
 import functools
-import re
 
 import equinox as eqx
 import jax
@@ -38,6 +37,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Real
 
 from . import _photometry_tables as _tables
+from .names import canonical_key
 
 
 __all__ = [
@@ -86,13 +86,9 @@ _DENOMINATORS = {"380780": "380-780", "full": "full", "fullrange": "full"}
 _CCT_METHODS = {"ohno2013": "ohno2013", "robertson1968": "robertson1968"}
 
 
-def _key(name: str) -> str:
-    return re.sub(r"[^0-9a-z]", "", str(name).lower())
-
-
 def _resolve(name: str, registry: dict[str, str], argument: str) -> str:
     try:
-        return registry[_key(name)]
+        return registry[canonical_key(name)]
     except KeyError:
         choices = sorted(set(registry.values()))
         raise ValueError(

@@ -58,11 +58,9 @@ def main(argv=None) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     bands, source = _bands(Path("results"))
     atmosphere = ("midlatitude_summer", "urban", 23.0)
-    try:
-        from bandopt.datasets import atmosphere as atm
+    from bandopt.datasets import atmosphere as atm
 
-        atm.transmittance("up", *atmosphere, 0.0, [550.0])
-    except Exception:  # tables missing
+    if not atm.tables_available():  # 6S tables missing: render without atmosphere
         atmosphere = None
     dx = 1.0 if args.quick else 0.5
     scene = render(load_layout("mixed-led-hps"), bands, dx_m=dx, atmosphere=atmosphere)

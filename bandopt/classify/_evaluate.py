@@ -174,21 +174,6 @@ def evaluate_band_set(
     return out
 
 
-def load_band_set(source: str):
-    """A band set from a reference sensor name (`bandopt.sensor.REFERENCE_SENSORS`,
-    case and separators ignored) or a band-set JSON file (`BandSet.from_json`)."""
-    from pathlib import Path
-
-    from ..sensor import BandSet, reference_sensor
-
-    path = Path(source)
-    if str(source).lower().endswith(".json") or path.is_file():
-        if not path.is_file():
-            raise FileNotFoundError(f"{source}: no such band-set file")
-        return BandSet.from_json(path)
-    return reference_sensor(source)
-
-
 def summary(result: dict) -> dict:
     """The headline numbers of an `evaluate_band_set` result (JSON-ready):
     per level macro F1 (pooled and fold mean/SD), accuracy, mean per-lamp

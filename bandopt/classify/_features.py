@@ -23,6 +23,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from ..names import validate_method
+
 
 FEATURE_KINDS = ("log_ratio", "sum_normalised")
 LOG_FLOOR = 1e-6
@@ -31,12 +33,7 @@ LOG_FLOOR = 1e-6
 
 def resolve_kind(kind: str) -> str:
     """Canonical feature kind (case and separators ignored)."""
-    key = str(kind).strip().lower().replace("-", "_").replace(" ", "_")
-    if key not in FEATURE_KINDS:
-        raise ValueError(
-            f"Unknown feature kind {kind!r}; expected one of {list(FEATURE_KINDS)}."
-        )
-    return key
+    return validate_method(kind, FEATURE_KINDS, "feature kind")
 
 
 def features(

@@ -14,6 +14,7 @@ import hashlib
 
 import numpy as np
 
+from ..datasets import atmosphere
 from ..forward import ScenarioTable, scenario_table
 from ._features import features
 from ._knn import K_GRID, choose_k, make_classifier
@@ -30,14 +31,7 @@ def available_atmospheres() -> tuple:
     """The default 6S atmospheres if their tables load, else `("none",)`."""
     from ..scene import DEFAULT_ATMOSPHERES
 
-    try:
-        from ..datasets import atmosphere
-
-        for a in DEFAULT_ATMOSPHERES:
-            atmosphere.transmittance("up", *a, 0.0, np.array([500.0, 600.0]))
-    except Exception:  # tables missing or being regenerated
-        return ("none",)
-    return DEFAULT_ATMOSPHERES
+    return DEFAULT_ATMOSPHERES if atmosphere.tables_available() else ("none",)
 
 
 @functools.lru_cache(maxsize=2)

@@ -35,17 +35,10 @@ def register(subparsers):
 
 
 def _load(source: str):
-    from pathlib import Path
+    from ..sensor import resolve_band_set
 
-    from ..sensor import BandSet
-    from ..sensor.reference import resolve
-
-    path = Path(source)
-    if source.lower().endswith(".json") or path.is_file():
-        if not path.is_file():
-            raise FileNotFoundError(f"{source}: no such band-set file")
-        return BandSet.from_json(path), None
-    return resolve(source).build(), resolve(source)
+    found = resolve_band_set(source)
+    return found.bands, found.entry
 
 
 def summary(bands, entry) -> dict:

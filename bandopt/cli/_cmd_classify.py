@@ -53,9 +53,10 @@ def run(args) -> int:
     import json
 
     from ..classify import TRAINING_SCENARIOS, available_atmospheres, evaluate_band_set
-    from ..classify._evaluate import load_band_set, summary
+    from ..classify._evaluate import summary
     from ..forward import scenario_table
     from ..scene import build_scenarios
+    from ..sensor import load_band_set
 
     band_sets = [(src, load_band_set(src)) for src in args.bands]
     atms = available_atmospheres() if args.atmospheres == "auto" else ("none",)

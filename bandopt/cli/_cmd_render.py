@@ -61,16 +61,9 @@ def register(subparsers):
 
 
 def _bands(source: str):
-    from pathlib import Path
+    from ..sensor import load_band_set
 
-    from ..sensor import BandSet, reference_sensor
-
-    path = Path(source)
-    if source.lower().endswith(".json") or path.is_file():
-        if not path.is_file():
-            raise ValueError(f"{source}: no such band-set file")
-        return BandSet.from_json(path)
-    return reference_sensor(source)
+    return load_band_set(source)
 
 
 def run(args) -> int:

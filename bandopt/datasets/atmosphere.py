@@ -314,3 +314,21 @@ def table_info() -> dict:
     }
     info["files"] = [str(_TABLE), str(_META)]
     return info
+
+
+def tables_available() -> bool:
+    """Whether the 6S tables are installed (`make atmospheres` builds them).
+    The one availability check of bandopt: callers with an "auto" setting use
+    it and record the choice; callers that need the tables call
+    `require_tables`."""
+    return _TABLE.is_file() and _META.is_file()
+
+
+def require_tables() -> None:
+    """`FileNotFoundError` naming the missing file and `make atmospheres`
+    unless `tables_available()`."""
+    for path in (_TABLE, _META):
+        if not path.is_file():
+            raise FileNotFoundError(
+                f"{path} is missing: regenerate the 6S tables with `make atmospheres`."
+            )

@@ -58,6 +58,7 @@ from importlib import resources
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from ..names import canonical_key
 from ..photometry import K_M_LM_PER_W
 from ..spectra import GRID_1NM, VISIBLE_NM, trapezoid_weights
 
@@ -387,12 +388,8 @@ PHASE_ALIASES: dict[str, str] = {
 """Extra accepted names (matched ignoring case and separators)."""
 
 
-def _key(name: str) -> str:
-    return re.sub(r"[\s_\-]+", "", name.lower())
-
-
-_PHASE_LOOKUP = {_key(n): n for n in NAMED_PHASES} | {
-    _key(alias): target for alias, target in PHASE_ALIASES.items()
+_PHASE_LOOKUP = {canonical_key(n): n for n in NAMED_PHASES} | {
+    canonical_key(alias): target for alias, target in PHASE_ALIASES.items()
 }
 
 
@@ -484,7 +481,7 @@ def named_phase(name: str, zenith_deg: float = 30.0) -> MoonState:
     irradiance raises), quarters 90°, gibbous 45°, full 5°.
     `zenith_deg` is the Moon's zenith angle. [deg]
     """
-    canonical = _PHASE_LOOKUP.get(_key(str(name)))
+    canonical = _PHASE_LOOKUP.get(canonical_key(str(name)))
     if canonical is None:
         raise ValueError(
             f"Unknown Moon phase {name!r}; expected one of {list(NAMED_PHASES)} "

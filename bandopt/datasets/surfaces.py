@@ -47,6 +47,7 @@ from types import MappingProxyType
 import numpy as np
 from jaxtyping import ArrayLike, Bool, Float
 
+from ..names import canonical_key
 from ..spectra import GRID_1NM, resample
 
 
@@ -103,12 +104,8 @@ _ALIASES: Mapping[str, str] = MappingProxyType(
 )
 
 
-def _key(name: str) -> str:
-    return re.sub(r"[\s_\-]+", "", name.lower())
-
-
 _LOOKUP: Mapping[str, str] = MappingProxyType(
-    {**{_key(n): n for n in SURFACE_TYPES}, **_ALIASES}
+    {**{canonical_key(n): n for n in SURFACE_TYPES}, **_ALIASES}
 )
 
 
@@ -117,11 +114,11 @@ def resolve_surface(name: str) -> str:
 
     Raises `ValueError` listing the valid ids for an unknown name.
     """
-    if not isinstance(name, str) or _key(name) not in _LOOKUP:
+    if not isinstance(name, str) or canonical_key(name) not in _LOOKUP:
         raise ValueError(
             f"Unknown surface type {name!r}; expected one of {list(SURFACE_TYPES)}."
         )
-    return _LOOKUP[_key(name)]
+    return _LOOKUP[canonical_key(name)]
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:

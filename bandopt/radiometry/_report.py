@@ -138,8 +138,7 @@ def load_band_set(source: str, *, results_dir: str | Path = "results"):
     of results/recommendation.json, else the documented default
     `DEFAULT_BAND_SET`), a reference sensor name or a band-set JSON file.
     Returns `(bands, label, note)`."""
-    from ..sensor import BandSet
-    from ..sensor.reference import resolve
+    from ..sensor import resolve_band_set
 
     if str(source).strip().lower() in ("ours", "recommended"):
         path = Path(results_dir) / "recommendation.json"
@@ -155,13 +154,10 @@ def load_band_set(source: str, *, results_dir: str | Path = "results"):
             f"no 'spectral' bands in {path}: default {DEFAULT_BAND_SET} "
             "(SDGSAT-1 Glimmer PAN, blue, green, red)",
         )
-    p = Path(source)
-    if str(source).lower().endswith(".json") or p.is_file():
-        if not p.is_file():
-            raise ValueError(f"{source}: no such band-set file.")
-        return BandSet.from_json(p), p.stem, f"band-set file {p}"
-    entry = resolve(source)
-    return entry.build(), entry.key, entry.title
+    found = resolve_band_set(source)
+    if found.entry is None:
+        return found.bands, found.label, f"band-set file {found.path}"
+    return found.bands, found.label, found.entry.title
 
 
 def _spectral_bands(spectral, path):

@@ -162,14 +162,14 @@ STUDY_TASK = {
 
 
 def make_study_task(**kw) -> dict:
-    from ._task import atmospheres_available
+    from ..datasets import atmosphere
 
     unknown = set(kw) - set(STUDY_TASK) - {"sensor"}
     if unknown:
         raise ValueError(f"Unknown study task fields {sorted(unknown)}.")
     t = {**STUDY_TASK, **kw}
     if t["atmospheres"] == "auto":
-        t["atmospheres"] = "6s" if atmospheres_available() else "none"
+        t["atmospheres"] = "6s" if atmosphere.tables_available() else "none"
     return t
 
 

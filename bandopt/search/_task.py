@@ -17,6 +17,7 @@ import time
 import jax.numpy as jnp
 import numpy as np
 
+from ..datasets import atmosphere
 from ..estimate import (
     LampTable,
     fit_estimator,
@@ -47,18 +48,6 @@ ATMOSPHERES_6S = (
 )
 
 N_OUTER, N_INNER = N_OUTER_FOLDS, N_INNER_FOLDS
-
-
-def atmospheres_available() -> bool:
-    try:
-        from ..datasets import atmosphere
-
-        atmosphere.transmittance(
-            "up", *ATMOSPHERES_6S[0], 0.0, np.array([500.0, 600.0])
-        )
-    except Exception:  # tables missing or being regenerated
-        return False
-    return True
 
 
 @dataclasses.dataclass(frozen=True)
@@ -149,10 +138,9 @@ def get_context(
     over, noisy, level = parse_noise(noise)
     kw.update(over)
     if atmospheres == "auto":
-        atms = ATMOSPHERES_6S if atmospheres_available() else ("none",)
+        atms = ATMOSPHERES_6S if atmosphere.tables_available() else ("none",)
     elif atmospheres == "6s":
-        if not atmospheres_available():
-            raise ValueError("atmospheres='6s' but the 6S tables are not installed.")
+        atmosphere.require_tables()
         atms = ATMOSPHERES_6S
     elif atmospheres == "none":
         atms = ("none",)
@@ -250,7 +238,7 @@ def make_task(**kwargs) -> dict:
     task["target"] = resolve_target(task["target"])
     if task["atmospheres"] == "auto":
         # Resolve now, so the task's hash (its result file) says which was used.
-        task["atmospheres"] = "6s" if atmospheres_available() else "none"
+        task["atmospheres"] = "6s" if atmosphere.tables_available() else "none"
     return task
 
 

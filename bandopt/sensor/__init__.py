@@ -45,6 +45,9 @@ from ._slit import (
 )
 from .reference import (
     REFERENCE_SENSORS as REFERENCE_SENSORS,
+    BandSetSource as BandSetSource,
     ReferenceSensor as ReferenceSensor,
+    load_band_set as load_band_set,
     reference_sensor as reference_sensor,
+    resolve_band_set as resolve_band_set,
 )

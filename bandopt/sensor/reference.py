@@ -22,12 +22,13 @@ Names are matched ignoring case and separators (`"VIIRS_DNB"` is
 """
 
 import dataclasses
-import re
-from collections.abc import Callable, Mapping
-from types import MappingProxyType
+import os
+from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
+from ..names import CanonicalMapping
 from ._bands import DATA_RANGE_NM, Bands, BandSet, TabulatedBands
 
 
@@ -292,28 +293,16 @@ _ENTRIES = (
     ),
 )
 
-REFERENCE_SENSORS: Mapping[str, ReferenceSensor] = MappingProxyType(
-    {e.key: e for e in _ENTRIES}
+REFERENCE_SENSORS: CanonicalMapping[ReferenceSensor] = CanonicalMapping(
+    {e.key: e for e in _ENTRIES}, what="reference sensor"
 )
-"""Registry keyed by canonical name (`viirs-dnb`, `dmsp-ols`, ...)."""
-
-
-def _canonical(name: str) -> str:
-    return re.sub(r"[^0-9a-z]", "", name.lower())
-
-
-_BY_CANONICAL = {_canonical(k): k for k in REFERENCE_SENSORS}
+"""Registry keyed by canonical name (`viirs-dnb`, `dmsp-ols`, ...); lookups
+ignore case and separators (`bandopt.names.CanonicalMapping`)."""
 
 
 def resolve(name: str) -> ReferenceSensor:
     """The registry entry for `name` (case and separators ignored)."""
-    key = _BY_CANONICAL.get(_canonical(str(name)))
-    if key is None:
-        raise ValueError(
-            f"Unknown reference sensor {name!r}; expected one of "
-            f"{sorted(REFERENCE_SENSORS)}."
-        )
-    return REFERENCE_SENSORS[key]
+    return REFERENCE_SENSORS[REFERENCE_SENSORS.resolve(name)]
 
 
 def reference_sensor(name: str) -> Bands:
@@ -321,4 +310,50 @@ def reference_sensor(name: str) -> Bands:
     return resolve(name).build()
 
 
-__all__ = ["REFERENCE_SENSORS", "ReferenceSensor", "reference_sensor", "resolve"]
+@dataclasses.dataclass(frozen=True)
+class BandSetSource:
+    """A band set and where it came from: `entry` (a reference sensor) or
+    `path` (a band-set JSON file); the other is None."""
+
+    bands: Bands
+    entry: ReferenceSensor | None
+    path: Path | None
+
+    @property
+    def label(self) -> str:
+        """The registry key, or the file's stem."""
+        return self.entry.key if self.entry is not None else self.path.stem
+
+
+def resolve_band_set(source: str | os.PathLike) -> BandSetSource:
+    """The one band-set loader: `source` is a band-set JSON file
+    (`BandSet.from_json`; a name ending in `.json`, or any existing file) or a
+    reference sensor name (`REFERENCE_SENSORS`, case and separators ignored).
+    A missing file or an unknown name raises `ValueError` saying which."""
+    path = Path(source)
+    if str(source).lower().endswith(".json") or path.is_file():
+        if not path.is_file():
+            raise ValueError(
+                f"{source}: no such band-set file (a band set is a JSON file or "
+                f"one of {list(REFERENCE_SENSORS)})."
+            )
+        return BandSetSource(BandSet.from_json(path), None, path)
+    entry = resolve(str(source))
+    return BandSetSource(entry.build(), entry, None)
+
+
+def load_band_set(source: str | os.PathLike) -> Bands:
+    """`resolve_band_set(source).bands`: a band set from a reference sensor
+    name or a band-set JSON file."""
+    return resolve_band_set(source).bands
+
+
+__all__ = [
+    "REFERENCE_SENSORS",
+    "BandSetSource",
+    "ReferenceSensor",
+    "load_band_set",
+    "reference_sensor",
+    "resolve",
+    "resolve_band_set",
+]

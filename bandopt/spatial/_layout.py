@@ -48,6 +48,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..names import canonical_key
+
 
 ARRANGEMENTS = ("single", "single-sided", "staggered", "opposite", "central-twin")
 LAYOUT_DIR = Path(__file__).parent / "layouts"
@@ -141,8 +143,8 @@ class Layout:
 
 
 def _canon(kind: str) -> str:
-    k = re.sub(r"[\s_\-]+", "", str(kind).lower())
-    table = {re.sub(r"[\s_\-]+", "", a): a for a in ARRANGEMENTS}
+    k = canonical_key(kind)
+    table = {canonical_key(a): a for a in ARRANGEMENTS}
     table["row"] = "single-sided"
     table["singlesidedrow"] = "single-sided"
     table["twincentral"] = "central-twin"

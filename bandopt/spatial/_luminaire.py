@@ -22,7 +22,6 @@ not applied twice.
 
 import functools
 import math
-import re
 from pathlib import Path
 
 import equinox as eqx
@@ -31,6 +30,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from ..names import canonical_key
 from ._photometric import IntensityTable, read_lop, read_photometry
 
 
@@ -225,10 +225,6 @@ def road_optic(
     )
 
 
-def _key(name: str) -> str:
-    return re.sub(r"[\s_\-]+", "", name.lower())
-
-
 _NAMED = {
     "lambertian": lambertian,
     "uniform": uniform,
@@ -256,7 +252,7 @@ def luminaire(name_or_path: str, *, base_dir: str | Path | None = None) -> Lumin
     a `.ldt`, `.ies` or `.lop` file (relative to `base_dir` if given)."""
     if not isinstance(name_or_path, str):
         raise ValueError(f"luminaire must be a name or a path, got {name_or_path!r}.")
-    key = _key(name_or_path)
+    key = canonical_key(name_or_path)
     if key in _NAMED:
         return _named(key)
     suffix = Path(name_or_path).suffix.lower()

@@ -1,0 +1,89 @@
+"""One name registry, one band-set loader, one atmosphere check (issue 16)."""
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from bandopt.names import CanonicalMapping, canonical_key, validate_method
+from bandopt.sensor import (
+    REFERENCE_SENSORS,
+    BandSet,
+    load_band_set,
+    reference_sensor,
+    resolve_band_set,
+)
+
+
+def test_canonical_mapping_ignores_case_and_separators():
+    m = CanonicalMapping({"super-gaussian": 1, "viirs_dnb": 2}, what="thing")
+    assert m["Super Gaussian"] == 1 and m["VIIRS-DNB"] == 2
+    assert "superGAUSSIAN" in m and "gaussian" not in m
+    assert list(m) == ["super-gaussian", "viirs_dnb"] and len(m) == 2
+    assert m.resolve("viirs.dnb") == "viirs_dnb"
+    with pytest.raises(KeyError):
+        m["nope"]
+    with pytest.raises(ValueError, match=r"Unknown thing 'nope'; expected one of \["):
+        m.resolve("nope")
+
+
+def test_canonical_mapping_refuses_colliding_names_and_bad_aliases():
+    with pytest.raises(ValueError, match="same canonical key"):
+        CanonicalMapping({"a-b": 1, "A_B": 2})
+    with pytest.raises(ValueError, match="unknown"):
+        CanonicalMapping({"a": 1}, aliases={"x": "b"})
+
+
+@settings(deadline=None, max_examples=50)
+@given(st.text(max_size=20))
+def test_canonical_key_is_idempotent_and_alphanumeric(s):
+    k = canonical_key(s)
+    assert canonical_key(k) == k
+    assert all(c.isdigit() or ("a" <= c <= "z") for c in k)
+
+
+def test_validate_method_and_the_registries_that_use_it():
+    from bandopt.classify import resolve_level
+    from bandopt.classify._features import resolve_kind
+
+    assert validate_method("Log-Ratio", ("log_ratio", "sum_normalised")) == "log_ratio"
+    for name in (1, "L1", "level-1", "LEVEL_1"):
+        assert resolve_level(name) == "level1"
+    assert resolve_level("l2") == "level2"
+    assert resolve_kind("sum normalised") == "sum_normalised"
+    with pytest.raises(ValueError, match=r"expected one of \['level1', 'level2'\]"):
+        resolve_level(3)
+    assert REFERENCE_SENSORS["VIIRS DNB"] is REFERENCE_SENSORS["viirs-dnb"]
+
+
+def test_one_band_set_loader(tmp_path):
+    a = load_band_set("Aerocube")
+    ref = reference_sensor("aerocube")
+    np.testing.assert_array_equal(np.asarray(a.centre_nm), np.asarray(ref.centre_nm))
+    found = resolve_band_set("aerocube")
+    assert found.entry is not None and found.path is None
+    assert found.label == "aerocube"
+    f = tmp_path / "mine.json"
+    f.write_text(
+        json.dumps({"bands": [{"name": "b", "centre_nm": 550.0, "fwhm_nm": 40.0}]})
+    )
+    found = resolve_band_set(f)
+    assert isinstance(found.bands, BandSet) and found.label == "mine"
+    assert float(found.bands.centre_nm[0]) == pytest.approx(550.0)
+    with pytest.raises(ValueError, match="no such band-set file"):
+        load_band_set(tmp_path / "missing.json")
+    with pytest.raises(ValueError, match="Unknown reference sensor 'nope'"):
+        load_band_set("nope")
+
+
+def test_missing_atmosphere_tables_name_make_atmospheres(tmp_path, monkeypatch):
+    from bandopt.datasets import atmosphere
+
+    assert atmosphere.tables_available()  # shipped with the package
+    atmosphere.require_tables()
+    monkeypatch.setattr(atmosphere, "_TABLE", tmp_path / "sixs_tables.npz")
+    assert not atmosphere.tables_available()
+    with pytest.raises(FileNotFoundError, match="make atmospheres"):
+        atmosphere.require_tables()
