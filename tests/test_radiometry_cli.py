@@ -200,3 +200,29 @@ def test_standin_scores_are_sane():
         assert np.isfinite(clean[k]) and clean[k] <= worse[k] * 1.05
     with pytest.raises(ValueError, match="expected one of"):
         score(m.clean, scen, m.lamp_of, models="sklearn")
+
+
+def test_default_scoring_runs_the_project_models_without_fallback():
+    """By default `score` runs bandopt.estimate and bandopt.classify, named in
+    the result (there is no silent switch to the stand-ins any more)."""
+    from bandopt.datasets.lamps import library
+    from bandopt.radiometry import score
+    from bandopt.scene import build_scenarios
+    from bandopt.sensor import reference_sensor
+
+    lib = library().select(scored_only=True)
+    ids = []
+    for cls in ("hps", "metal_halide", "led_amber"):
+        ids += [r.id for r in lib.records if r.level2 == cls][:6]
+    scen = build_scenarios(
+        lamps=tuple(ids),
+        surfaces=("asphalt",),
+        atmospheres=("none",),
+        moons=(None,),
+        classes=("P6",),
+    )
+    m = measure(scen, reference_sensor("aerocube"), seed=0)
+    out = score(m.noisy, scen, m.lamp_of)
+    assert out["estimator"] == "bandopt.estimate.fit_estimator"
+    assert out["classifier"].startswith("bandopt.classify.evaluate_band_set")
+    assert 0.0 <= out["macro_f1"] <= 1.0 and np.isfinite(out["LER_mae"])

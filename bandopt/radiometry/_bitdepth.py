@@ -14,10 +14,11 @@ then `quantiser(L)` (encode, decode). The measured radiances feed
 - the lamp-type classifier of `bandopt.classify` (`evaluate_band_set`,
   level-2 macro F1 over the pooled outer test folds).
 
-If either module is missing (or its call fails), a clearly labelled stand-in
-is used and named in the result (`estimator`, `classifier` fields):
-scikit-learn ridge on centred log band ratios, and KNN (k = 5) on
-sum-normalised radiances, both on the same lamp-grouped outer folds.
+`models="standin"` scores with simple stand-ins instead, named in the result
+(`estimator`, `classifier` fields): scikit-learn ridge on centred log band
+ratios, and KNN (k = 5) on sum-normalised radiances, both on the same
+lamp-grouped outer folds. There is no silent fallback: if the project's
+models fail, the error propagates.
 """
 
 import dataclasses
@@ -26,9 +27,25 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..forward import band_measurement
+from ..classify import evaluate_band_set
+from ..datasets.lamps import library
+from ..estimate import LampTable, fit_estimator, lamp_abs_errors, lamp_truth
+from ..folds import (
+    N_OUTER_FOLDS,
+    class_balanced_mae,
+    nested_lamp_splits,
+    stratified_lamp_folds,
+)
+from ..forward import band_measurement, scenario_table
+from ..names import validate_method
+from ..photometry import metrics
 from ..scene import ScenarioSet
 from ..sensor import SensorParams
+
+
+MODELS = ("bandopt", "standin")
+"""Scoring models of `score`: the project's (`bandopt.estimate`,
+`bandopt.classify`) or the stand-ins (module docstring)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -69,30 +86,21 @@ def measure(
 
 
 def _lamp_meta(scen: ScenarioSet):
-    from ..datasets.lamps import library
-
     lib = library()
     rec = {r.id: r for r in lib.records}
     classes = np.asarray([rec[i].level2 for i in scen.lamp_ids], dtype=object)
     return classes
 
 
-class _UseStandInError(Exception):
-    """Raised to take the stand-in path on purpose (`models="standin"`)."""
-
-
 def _estimation_scores(radiance, scen, lamp_of, classes, seed, standin=False):
     """Class-balanced test MAE per metric over lamp-grouped outer folds."""
-    from ..folds import class_balanced_mae, nested_lamp_splits
-
     splits = nested_lamp_splits(classes, seed=seed)
     spectra = np.asarray(scen.factors.lamp)
     grid = np.asarray(scen.factors.wavelength_nm)
-    try:
-        if standin:
-            raise _UseStandInError
-        from ..estimate import LampTable, fit_estimator, lamp_abs_errors, lamp_truth
-
+    if standin:
+        errs, valid = _standin_estimation(radiance, spectra, grid, lamp_of, splits)
+        name = "stand-in: sklearn Ridge on centred log band ratios"
+    else:
         truth, valid = lamp_truth(spectra, grid)
         table = LampTable(lamp_of, classes, truth, valid)
         errs = np.full((len(classes), 3), np.nan)
@@ -101,9 +109,6 @@ def _estimation_scores(radiance, scen, lamp_of, classes, seed, standin=False):
             pred = np.asarray(est.predict(jnp.asarray(radiance)))
             errs[s.test] = lamp_abs_errors(pred, table, s.test)
         name = "bandopt.estimate.fit_estimator"
-    except (_UseStandInError, ImportError, AttributeError, TypeError):
-        errs, valid = _standin_estimation(radiance, spectra, grid, lamp_of, splits)
-        name = "stand-in: sklearn Ridge on centred log band ratios"
     out = {}
     for m, metric in enumerate(("LER", "G", "CCT")):
         ok = np.isfinite(errs[:, m])
@@ -114,9 +119,7 @@ def _estimation_scores(radiance, scen, lamp_of, classes, seed, standin=False):
 
 def _standin_estimation(radiance, spectra, grid, lamp_of, splits):
     """Stand-in estimator: sklearn Ridge(alpha=1e-3) on centred log ratios."""
-    from sklearn.linear_model import Ridge
-
-    from ..photometry import metrics
+    from sklearn.linear_model import Ridge  # sklearn: start-up time
 
     vis = (grid >= 380) & (grid <= 780)
     m = metrics(spectra[:, vis], grid[vis])
@@ -148,44 +151,32 @@ def _standin_estimation(radiance, spectra, grid, lamp_of, splits):
 def _classification_score(
     radiance, scen, lamp_of, classes, seed, table_cache, standin=False
 ):
-    try:
-        if standin:
-            raise _UseStandInError
-        try:  # public API first, then the modules issue 6 is building
-            from ..classify import evaluate_band_set, scenario_table
-        except ImportError:
-            from ..classify._data import scenario_table
-            from ..classify._evaluate import evaluate_band_set
-
-        if "table" not in table_cache:
-            table_cache["table"] = scenario_table(scen)
-        res = evaluate_band_set(
-            table_cache["table"],
-            None,
-            levels=("level2",),
-            noise=True,
-            fold_seed=seed,
-            radiance=radiance,
-        )
+    if standin:
         return {
-            "macro_f1": float(res["level2"]["macro_f1"]),
-            "classifier": "bandopt.classify.evaluate_band_set (level 2)",
+            "macro_f1": _standin_f1(radiance, lamp_of, classes, seed),
+            "classifier": "stand-in: KNN k=5 on sum-normalised radiance",
         }
-    except (_UseStandInError, ImportError, AttributeError, TypeError, KeyError):
-        pass
+    if "table" not in table_cache:
+        table_cache["table"] = scenario_table(scen)
+    res = evaluate_band_set(
+        table_cache["table"],
+        None,
+        levels=("level2",),
+        noise=True,
+        fold_seed=seed,
+        radiance=radiance,
+    )
     return {
-        "macro_f1": _standin_f1(radiance, lamp_of, classes, seed),
-        "classifier": "stand-in: KNN k=5 on sum-normalised radiance",
+        "macro_f1": float(res["level2"]["macro_f1"]),
+        "classifier": "bandopt.classify.evaluate_band_set (level 2)",
     }
 
 
 def _standin_f1(radiance, lamp_of, classes, seed):
     """Stand-in classifier: KNN (k = 5) on sum-normalised radiance, level-2
     macro F1 over the pooled outer test folds."""
-    from sklearn.metrics import f1_score
+    from sklearn.metrics import f1_score  # sklearn: start-up time
     from sklearn.neighbors import KNeighborsClassifier
-
-    from ..folds import N_OUTER_FOLDS, stratified_lamp_folds
 
     r = np.maximum(radiance, 0.0)
     tot = r.sum(1, keepdims=True)
@@ -207,16 +198,13 @@ def score(
     *,
     seed: int = 0,
     cache: dict | None = None,
-    models: str = "auto",
+    models: str = "bandopt",
 ) -> dict:
     """LER/G/CCT class-balanced test MAE [lm W⁻¹, 1, K] and level-2 macro F1
-    of measured radiances `(n, b)` (module docstring). `models="auto"`: the
-    project's estimators and classifier, falling back to the stand-ins;
-    `"standin"`: the stand-ins. The result names which ran."""
-    if models not in ("auto", "standin"):
-        raise ValueError(
-            f"Unknown models={models!r}; expected one of ['auto', 'standin']."
-        )
+    of measured radiances `(n, b)` (module docstring). `models="bandopt"`
+    (alias `"auto"`): the project's estimators and classifier, errors
+    propagate; `"standin"`: the stand-ins. The result names which ran."""
+    models = validate_method(models, MODELS, "models", aliases={"auto": "bandopt"})
     standin = models == "standin"
     cache = {} if cache is None else cache
     classes = _lamp_meta(scen)
@@ -243,7 +231,7 @@ def bit_depth_rows(
     params=None,
     *,
     seed: int = 0,
-    models: str = "auto",
+    models: str = "bandopt",
 ) -> list[dict]:
     """Score every quantiser in `quantisers` (label -> (scheme, bits, quantiser
     or None)); references: scheme "none-clean" (noise-free), "none" (photon
