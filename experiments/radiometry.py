@@ -68,8 +68,14 @@ if __name__ == "__main__":
         sys.exit(0)
     if not any(a.startswith("--bands") for a in argv):
         argv = ["--bands", "ours", *argv]
+    # the default run (the make target) owns results/radiometry and its part of
+    # recommendation.json; say so explicitly rather than rely on a default
+    default_run = "ours" in argv and not any(
+        a.startswith(("--out", "--quick")) for a in argv
+    )
+    if default_run and "--recommend" not in argv:
+        argv.append("--recommend")
     rc = main(["radiometry", *argv])
-    default_run = not any(a.startswith(("--out", "--quick")) for a in argv)
-    if rc == 0 and default_run and "ours" in argv:
+    if rc == 0 and default_run:
         write_readme()
     sys.exit(rc)

@@ -37,3 +37,19 @@ def test_cited_keys_in_code_resolve():
         cited |= set(pattern.findall(path.read_text()))
     missing = sorted(cited - keys)
     assert not missing, f"cited but not in references.bib: {missing}"
+
+
+def test_top_level_bibliography_is_the_package_one():
+    top = ROOT.parent / "references.bib"
+    assert top.resolve() == BIB.resolve()
+
+
+def test_keys_cited_in_the_docs_resolve():
+    keys = _bib_keys()
+    docs = ROOT.parent / "docs"
+    cited = set()
+    for path in docs.glob("*.rst"):
+        cited |= set(re.findall(r"``([A-Z][A-Za-z]+(?:19|20)\d\d[a-z]?)``",
+                                path.read_text()))
+    assert cited, "the docs cite no bibliography key"
+    assert not sorted(cited - keys), sorted(cited - keys)

@@ -1,0 +1,94 @@
+"""Documentation: the Sphinx build works offline (slow), and quick checks that
+the docs, the README and the tutorial say what the code does."""
+
+import importlib
+import re
+import socket
+from pathlib import Path
+
+import pytest
+
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+
+README_HEAD = """# bandopt
+
+```sh
+make run    # set up .venv, install, and run the main job on the built-in data
+make test   # set up .venv with test extras, and run the test suite
+```
+"""
+
+
+def test_readme_starts_with_its_two_commands():
+    assert (ROOT / "README.md").read_text().startswith(README_HEAD)
+
+
+def test_readme_tour_picture_exists_and_is_small():
+    text = (ROOT / "README.md").read_text()
+    pics = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
+    assert len(pics) == 1, pics
+    path = ROOT / pics[0]
+    assert path.is_file() and path.stat().st_size < 300_000
+
+
+def test_toctree_and_automodules_resolve():
+    index = (DOCS / "index.rst").read_text()
+    entries = re.findall(r"^   (\w+)$", index, flags=re.M)
+    assert {"guide", "tutorial", "report", "api", "references"} <= set(entries)
+    for e in entries:
+        assert (DOCS / f"{e}.rst").is_file(), e
+    modules = re.findall(r"^\.\. automodule:: ([\w.]+)", (DOCS / "api.rst").read_text(),
+                         flags=re.M)
+    assert "bandopt.report" in modules and "bandopt.results" in modules
+    for m in modules:
+        importlib.import_module(m)
+
+
+def test_docs_config_needs_no_network():
+    conf = (DOCS / "conf.py").read_text()
+    assert "sphinx.ext.intersphinx" not in conf
+    assert not re.search(r"https?://", conf)
+
+
+def test_tutorial_doc_matches_the_script():
+    from experiments import tutorial
+
+    doc = (DOCS / "tutorial.rst").read_text()
+    for lamp in tutorial.LAMPS:
+        assert lamp in doc
+    for bands in ("viirs-dnb", "sdgsat-1", "results/search/recommended_bands.json"):
+        assert bands in doc
+    assert "BANDOPT_LSPDD=0" in doc and "--estimator inversion" in doc
+    script = Path(tutorial.__file__).read_text()
+    assert '"BANDOPT_LSPDD": "0"' in script and '"--estimator", "inversion"' in script
+
+
+def test_guide_dask_option_exists():
+    guide = (DOCS / "guide.rst").read_text()
+    assert "--scheduler tcp://" in guide
+    search = (ROOT / "experiments" / "search.py").read_text()
+    assert 'add_argument("--scheduler"' in search
+
+
+@pytest.mark.slow
+# Sphinx 9's own napoleon extension uses an API Sphinx 9 deprecates
+@pytest.mark.filterwarnings("ignore:The mapping interface for autodoc options")
+def test_sphinx_build_offline(tmp_path, monkeypatch):
+    """The whole documentation, API reference included, builds with every
+    network connection refused."""
+    sphinx_build = pytest.importorskip("sphinx.cmd.build")
+
+    def refuse(*args, **kwargs):
+        raise OSError("network access during the docs build")
+
+    monkeypatch.setattr(socket.socket, "connect", refuse)
+    monkeypatch.setattr(socket, "create_connection", refuse)
+    out = tmp_path / "html"
+    rc = sphinx_build.build_main(["-b", "html", "-q", "-E", str(DOCS), str(out)])
+    assert rc == 0
+    api = (out / "api.html").read_text()
+    for name in ("build_report", "update_recommendation", "check_consistency"):
+        assert name in api
+    assert (out / "guide.html").is_file() and (out / "tutorial.html").is_file()
