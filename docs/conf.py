@@ -14,7 +14,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 project = "bandopt"
 author = "bandopt developers"
-copyright = "bandopt developers"  # noqa: A001
+copyright = "bandopt developers"
 release = "0.1.0"
 
 extensions = [
