@@ -78,6 +78,7 @@ def lamp_library_info() -> dict:
         "extended_unvalidated": sorted(
             r.id for r in extended if not r.extension_validated
         ),
+        "extended": sorted(r.id for r in extended),
     }
 
 

@@ -51,6 +51,7 @@ class Ctx:
     def __init__(self, src: Sources):
         self.src = src
         self.missing: list[str] = []
+        self.stale: dict[str, list[str]] = {}
 
     def ran(self, key: str) -> bool:
         e = BY_KEY[key]
@@ -329,13 +330,14 @@ def band_count(ctx: Ctx) -> str:
             y = [comp["designs"][f"n{n}+pan a=0"]["mae_mean"][m] for n in ns]
             e = [comp["designs"][f"n{n}+pan a=0"]["mae_sd"][m] for n in ns]
         ax.errorbar(ns, y, yerr=e, marker="o", capsize=3, label="ours (+ pan)")
-        for r in comp["references"].values():
-            v = r["norm_mae_mean"] if m is None else r["mae_mean"][m]
-            ax.plot(r["n_bands"], v, "x", color="grey")
+        refs = comp["references"].values()
+        ax.plot([r["n_bands"] for r in refs],
+                [r["norm_mae_mean"] if m is None else r["mae_mean"][m] for r in refs],
+                "x", color="grey", label="reference sensors")
         ax.axvline(bc["chosen_n"], color="k", ls=":", lw=1)
         ax.set_xlabel("free bands n")
         ax.set_title(label + (f" [{UNITS[m]}]" if m and UNITS[m] else ""))
-    axes[0].legend(["ours (+ pan)"], fontsize=8)
+    axes[0].legend(fontsize=8)
     fig.tight_layout()
     img = figure_png(
         fig, "Outer-test error vs band count (mean +/- SD over lamp partitions, "
@@ -586,9 +588,31 @@ def provenance(ctx: Ctx) -> str:
                 "created_utc", "")
         ):
             lib_info = (man, m)
+    newest = max(
+        (src.load(f"{f}/manifest.json") for f in folders
+         if src.exists(f"{f}/manifest.json")),
+        key=lambda m: m.get("created_utc", ""), default=None,
+    )
+    stale = {}
+    if newest is not None:
+        for f in folders:
+            if not src.exists(f"{f}/manifest.json"):
+                continue
+            dv = src.load(f"{f}/manifest.json").get("data_versions") or {}
+            diff = sorted(k for k, v in (newest.get("data_versions") or {}).items()
+                          if dv.get(k) != v)
+            if diff:
+                stale[f] = diff
+    ctx.stale = stale
+    for r in rows:
+        folder = r[0]
+        r.append(esc(", ".join(stale.get(folder, []))) or "")
     out = [
-        table(["results folder", "git commit", "dirty tree", "created (UTC)", "python"],
-              rows, caption="Which code made each result"),
+        table(["results folder", "git commit", "dirty tree", "created (UTC)", "python",
+               "data sets differing from the newest result"],
+              rows, caption="Which code and data made each result (a result made "
+              "with other data than the newest one is older than that data: "
+              "re-run it to compare like with like)"),
         table(["package"] + [esc(f) for f in folders],
               [[esc(k)] + [esc(v.get(f, "")) for f in folders]
                for k, v in sorted(pk_rows.items())],
@@ -620,6 +644,12 @@ def provenance(ctx: Ctx) -> str:
         if lib.get("extended"):
             out.append("<p>Every extended lamp: <code>"
                        + esc(", ".join(lib["extended"])) + "</code></p>")
+        else:
+            out.append(
+                '<p class="note">This manifest predates the per-lamp list of '
+                "extended spectra (<code>lamp_library/extended</code>); results "
+                "re-run since then record it.</p>"
+            )
     if ctx.ran("library"):
         N = "library/nir_validation.json"
         rows = []
@@ -663,13 +693,24 @@ def consistency(ctx: Ctx, messages: list[str], checks: tuple) -> str:
 
 
 def missing_summary(ctx: Ctx) -> str:
+    out = ""
     if not ctx.missing:
-        return '<p class="ok">Every experiment the report reads has been run.</p>'
-    return missing_box(
-        "experiments not run: " + ", ".join(
-            esc(BY_KEY[k].title if k in BY_KEY else k) for k in ctx.missing),
-        "each section below says what produces it",
-    )
+        out += '<p class="ok">Every experiment the report reads has been run.</p>'
+    else:
+        out += missing_box(
+            "experiments not run: " + ", ".join(
+                esc(BY_KEY[k].title if k in BY_KEY else k) for k in ctx.missing),
+            "each section below says what produces it",
+        )
+    if ctx.stale:
+        out += (
+            '<p class="note"><strong>Made with older data:</strong> '
+            + "; ".join(f"{esc(f)} ({esc(', '.join(d))})"
+                        for f, d in sorted(ctx.stale.items()))
+            + ' differ from the data of the newest result (see '
+            '<a href="#provenance">Provenance</a>).</p>'
+        )
+    return out
 
 
 def fmt(v) -> str:
