@@ -64,7 +64,7 @@ def contraction_bench(ctx) -> dict:
 
 
 def _preset(name):
-    from bandopt.search._task import PRESETS
+    from bandopt.search import PRESETS
 
     return PRESETS[name]
 
@@ -78,15 +78,17 @@ def eval_rate_bench(n_bands=(3, 5), steps: int = 50) -> dict:
     relative loss difference from float64 on random designs."""
     import jax.numpy as jnp
 
-    from bandopt.search import Space, jitted_losses, make_problem
-    from bandopt.search._stability import (
+    from bandopt.search import (
+        STUDY_TASK,
+        Space,
         batched_loss,
         batched_search,
+        get_context,
+        jitted_losses,
         lamp_resamples,
         make_batch_data,
+        make_problem,
     )
-    from bandopt.search._study import STUDY_TASK
-    from bandopt.search._task import get_context
 
     ctx = get_context("search", STUDY_TASK["noise"], 0, "auto")
     res = lamp_resamples(ctx.table.classes, STUDY_TASK["partitions"])

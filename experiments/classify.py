@@ -187,8 +187,7 @@ def final_search(table_search, n, budget, log):
 
 def influence_identification(table, bands, budget, factors, log):
     """Train on one condition value, test on the same and on the others."""
-    from bandopt.classify import evaluate_band_set, scores
-    from bandopt.classify._evaluate import class_order
+    from bandopt.classify import class_order, evaluate_band_set, scores
 
     rad = table.band_radiance(bands, noise=True, seed=budget["noise_seed"])
     rows = []
@@ -586,9 +585,12 @@ def main(argv=None) -> int:
     from bandopt._config import configure
 
     configure()
-    from bandopt.classify import available_atmospheres, evaluate_band_set
-    from bandopt.classify._evaluate import summary
-    from bandopt.classify._predict import TRAINING_SCENARIOS
+    from bandopt.classify import (
+        TRAINING_SCENARIOS,
+        available_atmospheres,
+        evaluate_band_set,
+        summary,
+    )
     from bandopt.forward import scenario_table
     from bandopt.provenance import write_manifest
     from bandopt.results import RESULTS_DIR, update_recommendation

@@ -38,8 +38,7 @@ def main(argv=None) -> int:
     import matplotlib.pyplot as plt
 
     from bandopt.provenance import write_manifest
-    from bandopt.search import make_task, run_sweep
-    from bandopt.search._sweep import print_progress
+    from bandopt.search import make_task, print_progress, run_sweep
 
     levels = [None if v.lower() == "none" else v for v in args.levels.split(",")]
     tasks = [

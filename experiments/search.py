@@ -80,8 +80,7 @@ def reference_tasks(*, seed=0, preset="search", noise=None):
 
 
 def do_sweep(args, targets) -> list:
-    from bandopt.search import run_sweep
-    from bandopt.search._sweep import print_progress
+    from bandopt.search import print_progress, run_sweep
 
     ns = [int(v) for v in args.bands.split(",")]
     tasks = search_tasks(
@@ -108,7 +107,7 @@ def _collect(out: Path, args):
     """Results of exactly the search tasks this configuration defines (seed,
     preset, budget, atmospheres, warm start: the task hash), so results of
     earlier runs with other settings in the same folder are never mixed in."""
-    from bandopt.search._sweep import task_path
+    from bandopt.search import task_path
 
     ns = [int(v) for v in args.bands.split(",")]
     expected = search_tasks(
@@ -228,9 +227,14 @@ def compare(args) -> dict:
 
     from bandopt.estimate import METRICS, UNITS
     from bandopt.provenance import write_manifest
-    from bandopt.search import get_context, run_sweep
-    from bandopt.search._report import mae_ci, paired_reduction, plot_bands_over_lamps
-    from bandopt.search._sweep import print_progress
+    from bandopt.search import (
+        get_context,
+        mae_ci,
+        paired_reduction,
+        plot_bands_over_lamps,
+        print_progress,
+        run_sweep,
+    )
     from bandopt.sensor import BandSet
     from bandopt.sensor.reference import REFERENCE_SENSORS
 
@@ -554,8 +558,7 @@ Fig. 4.2), `recommended_bands.json`, `manifest.json`, `tasks/` (one JSON per sea
 
 def budget(args) -> None:
     """Run time against test error for the joint target at pan + 5 bands."""
-    from bandopt.search import get_context, make_task, run_task
-    from bandopt.search._report import mae_ci
+    from bandopt.search import get_context, mae_ci, make_task, run_task
 
     out = Path(args.out)
     ctx = get_context(args.preset)
@@ -617,7 +620,7 @@ RUNNER = "bandopt.search._study:run_study_task"
 
 
 def _study_tasks(args, *, ns=None, alphas=(0.0,), refs=False):
-    from bandopt.search._study import make_study_task
+    from bandopt.search import make_study_task
     from bandopt.sensor.reference import REFERENCE_SENSORS
 
     common = dict(
@@ -645,7 +648,7 @@ class _Progress:
     count + 1, a reference sensor 0.15) times the expected cost left."""
 
     def __init__(self, tasks, out):
-        from bandopt.search._sweep import task_path
+        from bandopt.search import task_path
 
         self.t0 = time.perf_counter()
         self.cost = {str(task_path(out, t)): _task_cost(t) for t in tasks}
@@ -676,8 +679,7 @@ _REUSED: list[tuple[int, int]] = []
 
 
 def _sweep(tasks, args, label):
-    from bandopt.search import run_sweep
-    from bandopt.search._sweep import task_path
+    from bandopt.search import run_sweep, task_path
 
     out = Path(args.out)
     cached = [t for t in tasks if task_path(out, t).is_file()]
@@ -724,8 +726,7 @@ def _tolerance(ctx, bands, res, scorer, seed, sd):
     """Errors of the recommended set when the built filters deviate, with the
     estimator fitted to the nominal bands (an uncalibrated deviation)."""
     from bandopt.estimate import lamp_abs_errors
-    from bandopt.search._analysis import perturbed_bands
-    from bandopt.search._study import get_scorer
+    from bandopt.search import get_scorer, perturbed_bands
 
     rad0 = ctx.radiance(bands, seed=seed)
     fits = [get_scorer(scorer)(ctx, bands, rad0, r.train, list(r.inner)) for r in res]
@@ -818,7 +819,7 @@ def _tolerance(ctx, bands, res, scorer, seed, sd):
         }
     leak = interval("all", "leakage", 0.0)
     aoi = interval("all", "aoi_deg", 0.0)
-    from bandopt.search._analysis import AOI_N_EFF, LEAKAGE_NOTE
+    from bandopt.search import AOI_N_EFF, LEAKAGE_NOTE
 
     return rows, {
         "rule": "specification interval: the contiguous range of each deviation "
@@ -933,19 +934,21 @@ def study(args) -> dict:
     from bandopt.estimate import METRICS, UNITS
     from bandopt.provenance import write_manifest
     from bandopt.results import update_recommendation
-    from bandopt.search._analysis import (
+    from bandopt.search import (
         NORMALISATION_NOTE,
         PARETO_RULE,
+        SCORER_NOTES,
         band_count_choice,
         design_intervals,
         knee,
         lamp_mean_errors,
+        paired_reduction,
         pareto_mask,
-        summary,
+        partition_summary as summary,
+        study_resamples,
+        study_space,
         truth_sd,
     )
-    from bandopt.search._report import paired_reduction
-    from bandopt.search._study import SCORER_NOTES, _resamples, _space
 
     t_start = time.perf_counter()
     out = Path(args.out)
@@ -954,7 +957,7 @@ def study(args) -> dict:
     p1 = _study_tasks(args, ns=ns, alphas=(0.0,), refs=True)
     r1 = _sweep(p1, args, "phase 1 (band counts, reference sensors)")
     t0 = p1[0]
-    ctx, res = _resamples(
+    ctx, res = study_resamples(
         t0["preset"], t0["noise"], t0["atmospheres"], t0["partitions"], t0["seed"]
     )
     classes = ctx.table.classes
@@ -1004,7 +1007,7 @@ def study(args) -> dict:
     rec = cands[rec_key]
     rec_run = by_alpha[rec["alpha"]]
     stab = design_intervals(rec_run["designs"])
-    space = _space(rec_run["task"], ctx)
+    space = study_space(rec_run["task"], ctx)
     bands = space.band_set(
         stab["centre_nm"], stab["fwhm_nm"], name="bandopt-recommended"
     )
@@ -1405,7 +1408,7 @@ def main(argv=None) -> int:
     p.add_argument("--force", action="store_true", help="recompute cached tasks")
     args = p.parse_args(argv)
     if args.scorer is None:
-        from bandopt.search._study import DEFAULT_SCORER
+        from bandopt.search import DEFAULT_SCORER
 
         args.scorer = DEFAULT_SCORER
     Path(args.out).mkdir(parents=True, exist_ok=True)

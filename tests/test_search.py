@@ -338,3 +338,34 @@ def test_evaluate_json_schema(tmp_path, capsys):
 
 def test_jax_x64_is_on():
     assert jax.config.jax_enable_x64  # pyright: ignore
+
+
+def test_warm_start_takes_previous_result_explicitly(tmp_path):
+    """run_task's warm start gets the n - 1 result from `results` (no module
+    global): a dict filled by the call, or a sweep's finished task files."""
+    import json
+
+    from bandopt.search import TaskResults, run_task, task_id
+
+    t = make_task(
+        preset="tiny",
+        atmospheres="none",
+        target="g",
+        n_bands=2,
+        fold=0,
+        max_evals=20,
+        local_max_evals=5,
+        polish_steps=2,
+        seed=1,
+    )
+    results = {}
+    a = run_task(t, results=results)
+    (key,) = results
+    assert results[key]["task"]["n_bands"] == 1 and a["warm_start"] is not None
+    (tmp_path / "tasks").mkdir()
+    (tmp_path / "tasks" / f"{key}.json").write_text(json.dumps(results[key]))
+    from_files = TaskResults(tmp_path)
+    b = run_task(t, results=from_files)
+    assert list(from_files) == [key]  # read from the file, nothing else run
+    assert b["bands"] == a["bands"] and b["loss"] == a["loss"]
+    assert task_id(t) != key

@@ -17,6 +17,7 @@ from ._evaluate import (
     class_order as class_order,
     evaluate_band_set as evaluate_band_set,
     outer_splits as outer_splits,
+    summary as summary,
 )
 from ._features import (
     FEATURE_KINDS as FEATURE_KINDS,
@@ -26,16 +27,17 @@ from ._features import (
 from ._knn import (
     K_GRID as K_GRID,
     REJECT_THRESHOLD as REJECT_THRESHOLD,
-    UNKNOWN as UNKNOWN,
     choose_k as choose_k,
     make_classifier as make_classifier,
     neighbour_labels as neighbour_labels,
-    reject as reject,
     vote_proba as vote_proba,
 )
 from ._metrics import (
+    UNKNOWN as UNKNOWN,
     confusion as confusion,
     f1_from_confusion as f1_from_confusion,
+    macro_f1_int as macro_f1_int,
+    reject as reject,
     reject_curve as reject_curve,
     scores as scores,
 )

@@ -13,11 +13,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..datasets.lamps import LEVEL1, LEVEL2
 from ..folds import nested_lamp_splits
 from ..forward import ScenarioTable, resolve_level
 from ._features import deduplicate, features
-from ._knn import K_GRID, REJECT_THRESHOLD, choose_k, make_classifier, reject
-from ._metrics import reject_curve, scores
+from ._knn import K_GRID, REJECT_THRESHOLD, choose_k, make_classifier
+from ._metrics import reject, reject_curve, scores
 
 
 REJECT_GRID: tuple[float, ...] = (0.0, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
@@ -26,8 +27,6 @@ REJECT_GRID: tuple[float, ...] = (0.0, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
 
 def class_order(level: str, present: Sequence[str] | np.ndarray) -> list[str]:
     """Classes of `level` in the library's identifier order, only those present."""
-    from ..datasets.lamps import LEVEL1, LEVEL2
-
     ref = LEVEL1 if resolve_level(level) == "level1" else LEVEL2
     present = set(present)
     return [c for c in ref if c in present]

@@ -15,12 +15,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ._metrics import macro_f1_int
+
 
 K_GRID: tuple[int, ...] = (1, 3, 5, 9, 15, 25)
 """Candidate k, chosen by macro F1 on the inner folds (ties: smaller k)."""
-
-UNKNOWN = "unknown"
-"""Label of a rejected prediction."""
 
 REJECT_THRESHOLD = 0.6
 """Default confidence below which a prediction is "unknown": the winning
@@ -74,8 +73,6 @@ def choose_k(
     `inner`: (train lamps, validation lamps) pairs; `rows`: optional boolean
     mask of usable rows. Returns (k, {k: mean macro F1}).
     """
-    from ._metrics import macro_f1_int
-
     rows = np.ones(len(y), bool) if rows is None else rows
     scores = {int(k): 0.0 for k in k_grid}
     for tr, va in inner:
@@ -88,15 +85,3 @@ def choose_k(
             scores[int(k)] += macro_f1_int(y[v], pred, present) / len(inner)
     best = max(scores.items(), key=lambda kv: (round(kv[1], 12), -kv[0]))[0]
     return best, scores
-
-
-def reject(
-    proba: np.ndarray, classes: Sequence[str] | np.ndarray, threshold: float
-) -> np.ndarray:
-    """Labels with the reject option: the class of highest probability, or
-    `UNKNOWN` when that probability is below `threshold`."""
-    classes = np.asarray(classes, dtype=object)
-    conf = proba.max(axis=1)
-    out = classes[np.argmax(proba, axis=1)].astype(object)
-    out[conf < threshold] = UNKNOWN
-    return out

@@ -14,6 +14,22 @@ from collections.abc import Sequence
 import numpy as np
 
 
+UNKNOWN = "unknown"
+"""Label of a rejected prediction."""
+
+
+def reject(
+    proba: np.ndarray, classes: Sequence[str] | np.ndarray, threshold: float
+) -> np.ndarray:
+    """Labels with the reject option: the class of highest probability, or
+    `UNKNOWN` when that probability is below `threshold`."""
+    classes = np.asarray(classes, dtype=object)
+    conf = proba.max(axis=1)
+    out = classes[np.argmax(proba, axis=1)].astype(object)
+    out[conf < threshold] = UNKNOWN
+    return out
+
+
 def confusion(
     y_true,
     y_pred,
@@ -66,8 +82,6 @@ def scores(y_true, y_pred, labels: Sequence[str] | np.ndarray, lamp=None) -> dic
     """F1 per class, macro F1, accuracy (over all rows; rejected rows count as
     wrong), coverage (rows not "unknown"), confusion matrix and, with `lamp`
     (the lamp id of each row), per-lamp accuracy."""
-    from ._knn import UNKNOWN
-
     y_true = np.asarray(y_true, object)
     y_pred = np.asarray(y_pred, object)
     cm = confusion(y_true, y_pred, labels, extra=(UNKNOWN,))
@@ -113,13 +127,11 @@ def reject_curve(
     """For each confidence threshold: coverage (fraction of rows not rejected),
     accuracy and macro F1 on the accepted rows, and the macro F1 with rejected
     rows counted as misses."""
-    from ._knn import reject
-
     y_true = np.asarray(y_true, object)
     out = []
     for t in thresholds:
         pred = reject(proba, classes, float(t))
-        acc_rows = pred != "unknown"
+        acc_rows = pred != UNKNOWN
         s_all = scores(y_true, pred, classes)
         if acc_rows.any():
             s_acc = scores(y_true[acc_rows], pred[acc_rows], classes)

@@ -15,7 +15,10 @@ import hashlib
 import numpy as np
 
 from ..datasets import atmosphere
+from ..folds import nested_lamp_splits
 from ..forward import ScenarioTable, scenario_table
+from ..scene import DEFAULT_ATMOSPHERES, build_scenarios
+from ._evaluate import class_order
 from ._features import features
 from ._knn import K_GRID, choose_k, make_classifier
 
@@ -29,16 +32,12 @@ TRAINING_SCENARIOS = dict(
 
 def available_atmospheres() -> tuple:
     """The default 6S atmospheres if their tables load, else `("none",)`."""
-    from ..scene import DEFAULT_ATMOSPHERES
-
     return DEFAULT_ATMOSPHERES if atmosphere.tables_available() else ("none",)
 
 
 @functools.lru_cache(maxsize=2)
 def training_table(atmospheres: tuple | None = None) -> ScenarioTable:
     """The scenario table of `TRAINING_SCENARIOS` (cached)."""
-    from ..scene import build_scenarios
-
     atms = available_atmospheres() if atmospheres is None else atmospheres
     return scenario_table(
         build_scenarios(scored_only=True, atmospheres=atms, **TRAINING_SCENARIOS)
@@ -57,15 +56,11 @@ def _models(bands, noise: bool = True):
     table = training_table()
     key = _band_key(bands, table.wavelength_nm) + str(noise)
     if key not in _MODELS:
-        from ..folds import nested_lamp_splits
-
         rad = table.band_radiance(bands, noise=noise, seed=0)
         x = np.asarray(features(rad))
         splits = [(s.train, s.test) for s in nested_lamp_splits(table.level2, seed=0)]
         out = {}
         for level in ("level1", "level2"):
-            from ._evaluate import class_order
-
             classes = class_order(level, table.lamp_classes(level))
             cidx = {c: i for i, c in enumerate(classes)}
             y = np.asarray([cidx[c] for c in table.labels(level)])

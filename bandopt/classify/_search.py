@@ -35,22 +35,57 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..forward import ScenarioTable, radiance_from_response
-from ..search._problem import Space
+from ..search import Space, global_search
 from ..sensor import BandSet, SensorParams, slit_super_gaussian
+from ._evaluate import class_order
 from ._features import features
 from ._knn import K_GRID, neighbour_labels, vote_proba
 from ._metrics import macro_f1_int
 
 
 @dataclasses.dataclass(frozen=True)
-class SearchBox(Space):
+class SearchBox:
     """`n_bands` free bands, no panchromatic band: the search box of
     `bandopt.search.Space` with `pan="none"` (supports in [lower_nm,
     upper_nm], FWHM in [min_fwhm_nm, max_fwhm_nm], fixed shape exponent, unit
     box `u = (centre part (n), FWHM part (n))`), plus the responses, band set
-    and start point the classification search needs. [nm]"""
+    and start point the classification search needs, all as functions of the
+    unit-box point `u`. [nm]"""
 
-    pan: str = "none"
+    n_bands: int
+    lower_nm: float = 380.0
+    upper_nm: float = 900.0
+    min_fwhm_nm: float = 15.0
+    max_fwhm_nm: float = 200.0
+    shape_k: float = 6.0
+
+    @property
+    def space(self) -> Space:
+        """The same box as a band-search `Space` (validates the bounds)."""
+        return Space(
+            self.n_bands,
+            pan="none",
+            lower_nm=self.lower_nm,
+            upper_nm=self.upper_nm,
+            min_fwhm_nm=self.min_fwhm_nm,
+            max_fwhm_nm=self.max_fwhm_nm,
+            shape_k=self.shape_k,
+        )
+
+    def __post_init__(self):
+        self.space  # noqa: B018  (validation of the bounds)
+
+    @property
+    def dim(self) -> int:
+        return self.space.dim
+
+    def physical(self, u):
+        """Unit box -> (centre_nm, fwhm_nm). [nm]"""
+        return self.space.physical(u)
+
+    def unit(self, centre_nm, fwhm_nm) -> np.ndarray:
+        """Inverse of `physical` (clipped to the box)."""
+        return self.space.unit(centre_nm, fwhm_nm)
 
     def response(self, u, wavelength_nm):
         c, f = self.physical(u)
@@ -111,8 +146,6 @@ def search_data(
 ) -> SearchData:
     """Search rows: the lamps of `lamp_splits` ((train lamps, validation lamps)
     pairs, lamp indices of `table`)."""
-    from ._evaluate import class_order
-
     lamps = np.unique(np.concatenate([np.concatenate(s) for s in lamp_splits]))
     rows = np.flatnonzero(table.rows_of_lamps(lamps))
     classes = class_order(level, table.lamp_classes(level))
@@ -171,8 +204,6 @@ def nlopt_search(
     """Maximise `cv_macro_f1` over the box with an nlopt derivative-free
     global method. Returns the best point, its unit-box `u`, inner macro F1,
     evaluations, status and the improvement trace."""
-    from ..search._global import global_search
-
     if str(algorithm).strip().lower() not in ("crs2", "direct"):
         raise ValueError(
             f"algorithm must be a derivative-free one ('crs2', 'direct'), "
@@ -257,7 +288,7 @@ def surrogate_search(
     """Minimise `soft_nn_loss` with `optimistix.BFGS` from `start` (unit box;
     default `box.even_start()`), at most `max_steps` steps (one loss and
     gradient each). The result's inner macro F1 is the real KNN score."""
-    import optimistix as optx
+    import optimistix as optx  # start-up time: only the surrogate search uses it
 
     u0 = (
         box.even_start()

@@ -52,8 +52,12 @@ QUICK = dict(surfaces=("asphalt", "grass"), moons=(None,), classes=("P4",))
 def run(args) -> int:
     import json
 
-    from ..classify import TRAINING_SCENARIOS, available_atmospheres, evaluate_band_set
-    from ..classify._evaluate import summary
+    from ..classify import (
+        TRAINING_SCENARIOS,
+        available_atmospheres,
+        evaluate_band_set,
+        summary,
+    )
     from ..forward import scenario_table
     from ..scene import build_scenarios
     from ..sensor import load_band_set

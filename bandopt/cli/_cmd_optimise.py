@@ -65,9 +65,14 @@ def run(args) -> int:
     from pathlib import Path
 
     from ..provenance import write_manifest
-    from ..search import get_context, make_task, run_sweep
-    from ..search._report import mae_ci, plot_bands_over_lamps
-    from ..search._sweep import print_progress
+    from ..search import (
+        get_context,
+        mae_ci,
+        make_task,
+        plot_bands_over_lamps,
+        print_progress,
+        run_sweep,
+    )
     from ..sensor import BandSet
 
     if not 1 <= args.bands <= 12:

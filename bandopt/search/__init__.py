@@ -15,6 +15,22 @@
   (band count, Pareto knee, medoid design, tolerance intervals).
 """
 
+from ._analysis import (
+    AOI_N_EFF as AOI_N_EFF,
+    COUNT_RULE as COUNT_RULE,
+    DESIGN_RULE as DESIGN_RULE,
+    LEAKAGE_NOTE as LEAKAGE_NOTE,
+    NORMALISATION_NOTE as NORMALISATION_NOTE,
+    PARETO_RULE as PARETO_RULE,
+    band_count_choice as band_count_choice,
+    design_intervals as design_intervals,
+    knee as knee,
+    lamp_mean_errors as lamp_mean_errors,
+    pareto_mask as pareto_mask,
+    partition_summary as partition_summary,
+    perturbed_bands as perturbed_bands,
+    truth_sd as truth_sd,
+)
 from ._global import (
     ALGORITHMS as ALGORITHMS,
     NloptObjective as NloptObjective,
@@ -34,19 +50,37 @@ from ._problem import (
     make_problem as make_problem,
     scenario_spectra as scenario_spectra,
 )
+from ._report import (
+    mae_ci as mae_ci,
+    paired_reduction as paired_reduction,
+    plot_bands_over_lamps as plot_bands_over_lamps,
+)
 from ._stability import (
+    batched_loss as batched_loss,
     batched_search as batched_search,
     lamp_resamples as lamp_resamples,
     make_batch_data as make_batch_data,
 )
 from ._study import (
     DEFAULT_SCORER as DEFAULT_SCORER,
+    SCORER_NOTES as SCORER_NOTES,
     SCORERS as SCORERS,
+    STUDY_TASK as STUDY_TASK,
+    get_scorer as get_scorer,
     make_study_task as make_study_task,
     run_study_task as run_study_task,
+    study_resamples as study_resamples,
+    study_space as study_space,
 )
-from ._sweep import load_results as load_results, run_sweep as run_sweep
+from ._sweep import (
+    TaskResults as TaskResults,
+    load_results as load_results,
+    print_progress as print_progress,
+    run_sweep as run_sweep,
+    task_path as task_path,
+)
 from ._task import (
+    PRESETS as PRESETS,
     evaluate_bands as evaluate_bands,
     get_context as get_context,
     make_task as make_task,

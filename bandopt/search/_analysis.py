@@ -20,10 +20,13 @@ Stated rules (also written into every output):
 
 import itertools
 
+import jax.numpy as jnp
 import numpy as np
 
 from ..estimate import METRICS
 from ..folds import class_balanced_weights
+from ..sensor import BandSet
+from ._stability import medoid, region_frequency
 
 
 NORMALISATION_NOTE = (
@@ -59,7 +62,9 @@ def truth_sd(table) -> np.ndarray:
 
 
 def macro_f1(y_true, y_pred) -> float:
-    from ..classify._metrics import macro_f1_int
+    # classify builds on search (Space, global_search): import it late, not
+    # at module level, so the two packages do not import each other
+    from ..classify import macro_f1_int
 
     y_true, y_pred = np.asarray(y_true), np.asarray(y_pred)
     return macro_f1_int(y_true, y_pred, np.unique(y_true))
@@ -93,7 +98,7 @@ def per_partition(scores, classes, sd) -> dict:
     }
 
 
-def summary(scores, classes, sd) -> dict:
+def partition_summary(scores, classes, sd) -> dict:
     """JSON-ready mean and SD over partitions (`mae_mean`, `mae_sd` keyed by
     metric; `norm_mae_*`, `f1_*`) plus the per-partition values."""
     pp = per_partition(scores, classes, sd)
@@ -167,8 +172,6 @@ def knee(points: np.ndarray, mask: np.ndarray) -> int:
 def design_intervals(designs, lo_q: float = 0.0, hi_q: float = 100.0) -> dict:
     """Medoid and per-band percentile intervals (default: min-max) of sorted
     designs."""
-    from ._stability import medoid, region_frequency
-
     pairs = [(np.asarray(d["centre_nm"]), np.asarray(d["fwhm_nm"])) for d in designs]
     i = medoid(pairs)
     c = np.stack([p[0] for p in pairs])
@@ -219,10 +222,6 @@ def perturbed_bands(bands, *, dc=None, scale=None, leakage=0.0, aoi_deg=0.0):
     """A perturbed copy of a `BandSet`-like set (response callable):
     centre shifts `dc` (b,) [nm], FWHM factors `scale` (b,), blue shift of an
     angle of incidence, leakage floor. Returns an object with `response(wl)`."""
-    import jax.numpy as jnp
-
-    from ..sensor import BandSet
-
     c = np.asarray(bands.centre_nm, float).copy()
     f = np.asarray(bands.fwhm_nm, float).copy()
     if dc is not None:

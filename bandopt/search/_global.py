@@ -59,7 +59,7 @@ class NloptObjective:
         self._t0: float | None = None
 
     def __call__(self, x: np.ndarray, grad: np.ndarray) -> float:
-        import nlopt
+        import nlopt  # nlopt: start-up time, imported on first use
 
         if self.n_evals >= self.max_evals:
             raise nlopt.ForcedStop("evaluation budget reached")
@@ -121,7 +121,7 @@ def global_search(
     `local_max_evals`, `local_ftol_rel`: stopping rules of each LBFGS local
     search in MLSL. `population`: nlopt's population (0: its default).
     """
-    import nlopt
+    import nlopt  # nlopt: start-up time, imported on first use
 
     key = str(algorithm).strip().lower()
     if key not in ALGORITHMS:

@@ -3,6 +3,7 @@ relative reductions, bands drawn over lamp spectra)."""
 
 import numpy as np
 
+from ..datasets.lamps import library
 from ..estimate import METRICS, UNITS
 from ..folds import lamp_bootstrap_ci
 
@@ -68,12 +69,10 @@ def _by_lamp(errors, index):
 
 def plot_bands_over_lamps(bands, path, *, title: str = "") -> None:
     """The band responses over the mean spectrum of each scored lamp class."""
-    import matplotlib
+    import matplotlib  # plotting only: start-up time
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from ..datasets.lamps import library
 
     lib = library().select(scored_only=True)
     wl = lib.wavelength_nm

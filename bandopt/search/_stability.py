@@ -45,6 +45,7 @@ from ..estimate import (
 )
 from ..folds import N_INNER_FOLDS, N_OUTER_FOLDS, nested_lamp_splits
 from ..forward import noise_draws, radiance_from_response
+from ..sensor import SensorParams, slit_super_gaussian
 
 
 MIN_FWHM_NM = 20.0
@@ -133,8 +134,6 @@ def make_batch_data(
     resample r only sees its training lamps: every other scene has weight 0).
     `shared`: fit columns with the same weights as one multi-output ridge
     (`shared_ridge_cv`, the fast path); False: one `fit_ridge` per column."""
-    from ..sensor import SensorParams
-
     toa = np.asarray(toa_lamp).reshape(-1, toa_lamp.shape[-1])
     if noise_radiance is not None:
         w = np.asarray(wavelength_nm)
@@ -213,8 +212,6 @@ def overlap_matrix(response) -> jax.Array:
 
 def design_terms(data: BatchData, space, u, r):
     """(est, cls, overlap penalty) of unit-box point `u` for resample index `r`."""
-    from ..sensor import slit_super_gaussian
-
     centre, fwhm = space.physical(u)
     k = jnp.full_like(centre, data.shape_k)
     free = slit_super_gaussian(data.wavelength_nm, centre, fwhm, k)

@@ -16,6 +16,21 @@ from collections.abc import Callable
 import jax.numpy as jnp
 import numpy as np
 
+from ..datasets import atmosphere
+from ..estimate import fit_estimator, lamp_abs_errors
+from ..sensor import SensorParams, noise_electrons, signal_electrons
+from ..sensor.reference import reference_sensor
+from ._problem import Space
+from ._stability import (
+    batched_search,
+    design_terms,
+    lamp_resamples,
+    make_batch_data,
+    overlap_matrix,
+    sorted_design,
+)
+from ._task import _scale_to, get_context
+
 
 DEFAULT_SCORER = "ridge"
 """Estimator that judges designs on the outer folds (the same for reference
@@ -25,8 +40,6 @@ sensors). Switch here (one line) to `"inversion"` once it is usable."""
 def _ridge_fit(ctx, bands, rad, train, inner) -> Callable:
     """Ridge on centred log ratios (degree and strength by inner CV); returns
     `predict(radiance, bands) -> (N, 3)` [lm/W, 1, K]."""
-    from ..estimate import fit_estimator
-
     est = fit_estimator(rad, ctx.table, train, inner)
     return lambda r, b=None: np.asarray(est.predict(jnp.asarray(r)))
 
@@ -58,6 +71,7 @@ def get_scorer(name: str) -> Callable:
 def f1_outer(ctx, rad, train, inner, test) -> tuple[np.ndarray, np.ndarray]:
     """KNN (`bandopt.classify`) level-2 predictions on the test lamps' scenes:
     returns (true labels, predicted labels) as integers."""
+    # classify builds on search: a late import keeps the packages acyclic
     from ..classify import choose_k, features, neighbour_labels, vote_proba
 
     x = np.asarray(features(jnp.asarray(rad)))
@@ -76,13 +90,9 @@ def f1_outer(ctx, rad, train, inner, test) -> tuple[np.ndarray, np.ndarray]:
 def design_snr(ctx, bands) -> float:
     """Median over scenes (signal > 0 in every band) of the weakest band's
     shot-noise SNR at the context's signal level (thesis Table 2.3 sensor)."""
-    from ..sensor import SensorParams, noise_electrons, signal_electrons
-
     wl = jnp.asarray(ctx.wavelength_nm)
     toa = ctx.toa.reshape(-1, ctx.toa.shape[-1])
     if ctx.noise_radiance is not None:
-        from ._task import _scale_to
-
         toa = _scale_to(toa, ctx.wavelength_nm, ctx.noise_radiance)
     e = np.asarray(signal_electrons(toa, bands.response(wl), wl, SensorParams()))
     ok = (e > 0).all(axis=1)
@@ -100,7 +110,6 @@ def score_design(ctx, bands, resamples, *, scorer: str, seed: int, which=None):
     for i in range(len(resamples)) if which is None else which:
         r = resamples[i]
         predict = fit(ctx, bands, rad, r.train, list(r.inner))
-        from ..estimate import lamp_abs_errors
 
         err = lamp_abs_errors(predict(rad, bands), ctx.table, r.test)
         yt, yp = f1_outer(ctx, rad, r.train, list(r.inner), r.test)
@@ -118,8 +127,7 @@ def score_design(ctx, bands, resamples, *, scorer: str, seed: int, which=None):
     return out
 
 
-def _space(task, ctx):
-    from ._problem import Space
+def study_space(task, ctx):
 
     return Space(
         int(task["n_bands"]),
@@ -132,9 +140,7 @@ def _space(task, ctx):
 
 
 @functools.lru_cache(maxsize=4)
-def _resamples(preset, noise, atmospheres, partitions, seed):
-    from ._stability import lamp_resamples
-    from ._task import get_context
+def study_resamples(preset, noise, atmospheres, partitions, seed):
 
     ctx = get_context(preset, noise, 0, atmospheres)
     return ctx, tuple(lamp_resamples(ctx.table.classes, partitions, seed=seed))
@@ -162,7 +168,6 @@ STUDY_TASK = {
 
 
 def make_study_task(**kw) -> dict:
-    from ..datasets import atmosphere
 
     unknown = set(kw) - set(STUDY_TASK) - {"sensor"}
     if unknown:
@@ -175,11 +180,8 @@ def make_study_task(**kw) -> dict:
 
 def run_study_task(task: dict) -> dict:
     """Run one stability task (search) or reference task (`sensor` set)."""
-    from ..sensor.reference import reference_sensor
-    from ._stability import batched_search, make_batch_data, sorted_design
-
     t0 = time.perf_counter()
-    ctx, res = _resamples(
+    ctx, res = study_resamples(
         task["preset"],
         task["noise"],
         task["atmospheres"],
@@ -203,7 +205,7 @@ def run_study_task(task: dict) -> dict:
             "context": ctx.config,
             "wall_s": time.perf_counter() - t0,
         }
-    space = _space(task, ctx)
+    space = study_space(task, ctx)
     data = make_batch_data(
         ctx.toa,
         ctx.wavelength_nm,
@@ -225,7 +227,6 @@ def run_study_task(task: dict) -> dict:
         seed=task["seed"],
     )
     search_s = time.perf_counter() - t1
-    from ._stability import design_terms, overlap_matrix
 
     designs, scores, snrs, terms, overlaps = [], [], [], [], []
     for i, u in enumerate(s["u"]):

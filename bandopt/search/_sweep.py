@@ -17,6 +17,8 @@ Executors, one code path (`_execute` -> `run_and_write`):
 """
 
 import contextlib
+import functools
+import importlib
 import json
 import os
 import sys
@@ -24,6 +26,9 @@ import tempfile
 import traceback
 from collections.abc import Callable, Sequence
 from pathlib import Path
+
+from .._config import configure
+from ._task import run_task, task_id
 
 
 WORKER_XLA_FLAGS = "--xla_cpu_multi_thread_eigen=false"
@@ -34,7 +39,6 @@ not set."""
 
 
 def task_path(out_dir: str | Path, task: dict) -> Path:
-    from ._task import task_id
 
     return Path(out_dir) / "tasks" / f"{task_id(task)}.json"
 
@@ -52,13 +56,9 @@ def run_and_write(task: dict, out_dir: str, runner: str | None = None) -> dict:
     """Run one task and write its JSON (or a `.failed.json`). Returns a short
     status dict. `runner`: "module:function" to run instead of `run_task`
     (used by tests to inject failures)."""
-    import importlib
-
-    from .._config import configure
-
     configure()
     path = task_path(out_dir, task)
-    fn = run_task_default
+    fn = functools.partial(run_task_default, out_dir=out_dir)
     if runner:
         mod, name = runner.split(":")
         fn = getattr(importlib.import_module(mod), name)
@@ -78,10 +78,30 @@ def run_and_write(task: dict, out_dir: str, runner: str | None = None) -> dict:
     return {"path": str(path), "ok": True, "wall_s": result.get("wall_s")}
 
 
-def run_task_default(task: dict) -> dict:
-    from ._task import run_task
+class TaskResults(dict):
+    """Task results by `task_id`: those added in this process, then the
+    finished task files of a sweep's `out_dir` (read on first use). Warm
+    starts of `run_task` look up the n - 1 task here."""
 
-    return run_task(task)
+    def __init__(self, out_dir: str | Path | None = None):
+        super().__init__()
+        self.out_dir = None if out_dir is None else Path(out_dir)
+
+    def get(self, key, default=None):
+        if key in self:
+            return self[key]
+        if self.out_dir is not None:
+            path = self.out_dir / "tasks" / f"{key}.json"
+            if path.is_file():
+                self[key] = json.loads(path.read_text())
+                return self[key]
+        return default
+
+
+def run_task_default(task: dict, out_dir: str | Path | None = None) -> dict:
+    """`run_task(task)`, warm-starting from the finished tasks of `out_dir`."""
+
+    return run_task(task, results=TaskResults(out_dir))
 
 
 @contextlib.contextmanager
@@ -145,7 +165,7 @@ def run_sweep(
             if client is not scheduler:
                 client.close()
     elif workers > 1 and len(args) > 1:
-        import multiprocessing as mp
+        import multiprocessing as mp  # only for spawned workers
 
         ctx = mp.get_context("spawn")
         with _worker_env():

@@ -18,6 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..datasets import atmosphere
+from ..datasets.lamps import library
 from ..estimate import (
     LampTable,
     fit_estimator,
@@ -25,8 +26,13 @@ from ..estimate import (
     lamp_truth,
     resolve_target,
 )
-from ..folds import N_INNER_FOLDS, N_OUTER_FOLDS
+from ..folds import N_INNER_FOLDS, N_OUTER_FOLDS, nested_lamp_splits
 from ..forward import band_radiance
+from ..scene import LIGHTING_CLASSES, build_scenarios
+from ..sensor.reference import reference_sensor
+from ._global import global_search
+from ._local import bandset_losses, fit_local, free_bandset
+from ._problem import Space, jitted_losses, make_problem, scenario_spectra
 
 
 PRESETS = {
@@ -100,7 +106,6 @@ def parse_noise(level: str | None) -> tuple[dict, bool, float | None]:
     """`--noise LEVEL` -> (preset overrides, noise on, radiance level)."""
     if level is None or str(level).lower() in ("", "none"):
         return {}, False, None
-    from ..scene import LIGHTING_CLASSES
 
     key = str(level).strip().upper()
     if key in LIGHTING_CLASSES:
@@ -125,11 +130,6 @@ def get_context(
     atmospheres: str = "auto",
 ) -> Context:
     """Build (once per process) the scenario context of a preset."""
-    from ..datasets.lamps import library
-    from ..folds import nested_lamp_splits
-    from ..scene import build_scenarios
-    from ._problem import scenario_spectra
-
     if preset not in PRESETS:
         raise ValueError(
             f"Unknown scenario preset {preset!r}; expected one of {list(PRESETS)}."
@@ -224,9 +224,6 @@ DEFAULT_TASK = {
 WARM_NEW_CENTRES_NM = (430.0, 530.0, 630.0, 730.0, 830.0)
 """Where a warm start puts the band added to the n - 1 solution (FWHM 40 nm)."""
 
-_RESULTS: dict[str, dict] = {}
-"""Results of search tasks run in this process (warm starts reuse them)."""
-
 
 def make_task(**kwargs) -> dict:
     unknown = set(kwargs) - set(DEFAULT_TASK)
@@ -280,12 +277,15 @@ def evaluate_bands(ctx: Context, bands, *, folds=None, seed: int = 0) -> dict:
     }
 
 
-def run_task(task: dict, progress=None) -> dict:
-    """Run one task (see module docstring) and return its JSON-ready result."""
-    from ..sensor.reference import reference_sensor
-    from ._global import global_search
-    from ._local import bandset_losses, fit_local, free_bandset
-    from ._problem import Space, jitted_losses, make_problem
+def run_task(task: dict, progress=None, *, results: dict | None = None) -> dict:
+    """Run one task (see module docstring) and return its JSON-ready result.
+
+    `results`: results of tasks already run, by `task_id` (a dict, or anything
+    with `get` and item assignment, e.g. `bandopt.search.TaskResults` reading a
+    sweep's finished files). A warm start takes the n - 1 task's result from
+    it, running it (and adding it) when missing. Default: a new dict for this
+    call, so nothing is shared between calls."""
+    results = {} if results is None else results
 
     t0 = time.perf_counter()
     ctx = get_context(
@@ -352,9 +352,13 @@ def run_task(task: dict, progress=None) -> dict:
         # is the same computation whether cached or recomputed).
         n = task["n_bands"]
         # Budgets scale with the dimension, so the n - 1 task is the sweep's own.
-        prev = _cached_run(
-            dict(task, n_bands=n - 1, max_evals=round(task["max_evals"] * (n - 1) / n))
+        prev_task = dict(
+            task, n_bands=n - 1, max_evals=round(task["max_evals"] * (n - 1) / n)
         )
+        prev = results.get(task_id(prev_task))
+        if prev is None:
+            prev = run_task(prev_task, results=results)
+            results[task_id(prev_task)] = prev
         free = [b for b in prev["bands"]["bands"] if b["name"] != "PAN"]
         pc = [b["centre_nm"] for b in free]
         pf = [b["fwhm_nm"] for b in free]
@@ -415,14 +419,6 @@ def run_task(task: dict, progress=None) -> dict:
         )
     out["wall_s"] = time.perf_counter() - t0
     return out
-
-
-def _cached_run(task: dict) -> dict:
-    """`run_task` memoised in this process by the task's name (its hash)."""
-    key = task_id(task)
-    if key not in _RESULTS:
-        _RESULTS[key] = run_task(task)
-    return _RESULTS[key]
 
 
 def _describe(bands) -> dict:
