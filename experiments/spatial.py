@@ -153,7 +153,7 @@ def main(cfg: Config, out: Path) -> dict:
 
     from bandopt.provenance import write_manifest
     from bandopt.sensor import reference_sensor
-    from bandopt.spatial import load_layout, observe, phases, render, resolve_flux
+    from bandopt.spatial import gsd_sweep, load_layout, render, resolve_flux
 
     t0 = time.time()
     out.mkdir(parents=True, exist_ok=True)
@@ -181,32 +181,30 @@ def main(cfg: Config, out: Path) -> dict:
     mixed = dc.replace(mixed, length_m=cfg.length_m, width_m=cfg.width_m)
     todo.append(("mixed", "mixed-led-hps", mixed, {}))
 
-    rows, keep = [], {}
+    rows, table, keep = [], [], {}
     for group, name, layout, params in tqdm(todo, desc="scenes", unit="scene"):
         scene = render(layout, bands, dx_m=cfg.dx_m, atmosphere=atmosphere)
-        for gsd in cfg.gsds_m:
-            for k, ph in enumerate(phases(scene, gsd, cfg.n_phases, cfg.seed)):
-                obs = observe(
-                    scene, bands, gsd, seed=cfg.seed + 1000 * k + int(gsd), phase_px=ph
-                )
-                rows.append(
-                    {
-                        "group": group,
-                        "scene": name,
-                        **params,
-                        "gsd_m": gsd,
-                        "phase": k,
-                        **obs.score.as_dict(),
-                        "n_targets": obs.score.tp + obs.score.fn,
-                        "n_detected": int(obs.detections.xy_m.shape[0]),
-                        "lamp_flux_lm": float(np.nanmax(scene.lamps.flux_lm)),
-                    }
-                )
-                if k == 0 and group in ("single", "arrangements", "mixed", "patterns"):
-                    keep[(name, gsd)] = (obs, scene)
+        figures = group in ("single", "arrangements", "mixed", "patterns")
+        sweep = gsd_sweep(
+            scene,
+            bands,
+            cfg.gsds_m,
+            n_phases=cfg.n_phases,
+            seed=cfg.seed,
+            keep_observations=figures,
+        )
+        flux = {"lamp_flux_lm": float(np.nanmax(scene.lamps.flux_lm))}
+        for sc in sweep.scores:
+            head = {"group": group, "scene": name, **params}
+            rows += [{**head, **r, **flux} for r in sc.phase_rows()]
+            mean = sc.mean_row()
+            table.append(
+                {**head, "gsd_m": sc.gsd_m, "n_targets": sc.n_targets, **flux, **mean}
+            )
+            if figures:
+                keep[(name, sc.gsd_m)] = (sweep.first_phase[sc.gsd_m], scene)
         if group in ("single", "arrangements", "mixed"):
             _save_fine(out, name, scene)
-    table = _aggregate(rows)
     _write_tables(out, rows, table)
     needed = _needed(table, cfg)
     _figures(out, cfg, keep, table)
@@ -277,55 +275,14 @@ def recommend_from_summary(out: Path) -> int:
     return 0
 
 
-def _aggregate(rows):
-    """Mean over phases per scene and GSD."""
-    groups = {}
-    for r in rows:
-        groups.setdefault((r["group"], r["scene"], r["gsd_m"]), []).append(r)
-    out = []
-    for rs in groups.values():
-        base = {
-            k: v
-            for k, v in rs[0].items()
-            if k
-            not in (
-                "phase",
-                "tp",
-                "fp",
-                "fn",
-                "precision",
-                "recall",
-                "f1",
-                "n_detected",
-            )
-        }
-        out.append(
-            {
-                **base,
-                "n_phases": len(rs),
-                **{
-                    k: float(np.mean([r[k] for r in rs]))
-                    for k in ("precision", "recall", "f1", "n_detected")
-                },
-                "f1_min": float(min(r["f1"] for r in rs)),
-            }
-        )
-    return out
-
-
 def _needed(table, cfg):
-    """Per scene: the coarsest GSD with F1 (mean over phases) >= f1_needed, and
-    every GSD that reaches it (fine GSDs can fail too: a light pool is not a
-    lamp)."""
+    """Per scene: `bandopt.spatial.coarsest_gsd` of its phase-mean F1."""
+    from bandopt.spatial import coarsest_gsd
+
     res = {}
     for name in dict.fromkeys(r["scene"] for r in table):
-        rs = sorted((r for r in table if r["scene"] == name), key=lambda r: r["gsd_m"])
-        ok = [r["gsd_m"] for r in rs if r["f1"] >= cfg.f1_needed]
-        res[name] = {
-            "coarsest_gsd_m": max(ok) if ok else None,
-            "working_gsds_m": ok,
-            "f1_by_gsd": {f"{r['gsd_m']:g}": round(r["f1"], 3) for r in rs},
-        }
+        f1 = {r["gsd_m"]: r["f1"] for r in table if r["scene"] == name}
+        res[name] = coarsest_gsd(f1, cfg.f1_needed).as_dict()
     return res
 
 

@@ -92,3 +92,11 @@ from ._render import (
     surface_index as surface_index,
     uplight_images as uplight_images,
 )
+from ._sweep import (
+    F1_NEEDED as F1_NEEDED,
+    CoarsestGsd as CoarsestGsd,
+    GsdScore as GsdScore,
+    GsdSweep as GsdSweep,
+    coarsest_gsd as coarsest_gsd,
+    gsd_sweep as gsd_sweep,
+)
