@@ -185,118 +185,6 @@ def final_search(table_search, n, budget, log):
     return box.band_set(np.asarray(best["u"]), name=f"classification-{n}"), r1, r2
 
 
-def influence_identification(table, bands, budget, factors, log):
-    """Train on one condition value, test on the same and on the others."""
-    from bandopt.classify import class_order, evaluate_band_set, scores
-
-    rad = table.band_radiance(bands, noise=True, seed=budget["noise_seed"])
-    rows = []
-    base = evaluate_band_set(
-        table, bands, radiance=rad, keep_rows=True, fold_seed=budget["fold_seed"]
-    )
-    for factor in factors:
-        cond = table.condition(factor)
-        values = list(dict.fromkeys(cond.tolist()))
-        if len(values) < 2:
-            continue
-        for v in values:
-            same = cond == v
-            ev = evaluate_band_set(
-                table,
-                bands,
-                radiance=rad,
-                train_rows=same,
-                keep_rows=True,
-                fold_seed=budget["fold_seed"],
-                levels=("level2",),
-            )
-            idx, yt, yp = ev["level2"]["rows"]
-            classes = class_order("level2", table.level2)
-            m = same[idx]
-            f_same = scores(yt[m], yp[m], classes)["macro_f1"]
-            f_other = scores(yt[~m], yp[~m], classes)["macro_f1"]
-            bidx, byt, byp = base["level2"]["rows"]
-            bm = same[bidx]
-            f_all_same = scores(byt[bm], byp[bm], classes)["macro_f1"]
-            rows.append(
-                {
-                    "factor": factor,
-                    "train_on": v,
-                    "macro_f1_same": f_same,
-                    "macro_f1_others": f_other,
-                    "f1_drop": f_same - f_other,
-                    "macro_f1_trained_on_all_tested_on_this": f_all_same,
-                }
-            )
-            log(f"identification {factor}={v}: same {f_same:.3f}, others {f_other:.3f}")
-    return rows
-
-
-def influence_estimates(table, bands, budget, factors, log):
-    """LER/G/CCT ridge estimators (`bandopt.estimate`) trained on one condition
-    value, tested on the same and on the others (class-balanced lamp MAE)."""
-    from bandopt.classify import outer_splits
-    from bandopt.datasets.lamps import library
-    from bandopt.estimate import (
-        METRICS,
-        LampTable,
-        fit_estimator,
-        lamp_abs_errors,
-        lamp_truth,
-    )
-
-    lib = library().select(scored_only=True)
-    if tuple(lib.ids) != table.lamp_ids:
-        raise RuntimeError("scenario lamps and library order differ")
-    truth, valid = lamp_truth(lib.values, lib.wavelength_nm)
-    classes = table.level2
-    rad = table.band_radiance(bands, noise=True, seed=budget["noise_seed"])
-    splits = outer_splits(table, budget["fold_seed"])
-
-    def cb_mae(err, lamps):
-        out = []
-        for m in range(3):
-            ok = np.isfinite(err[:, m])
-            cls = classes[lamps][ok]
-            out.append(
-                float(np.mean([err[ok, m][cls == c].mean() for c in np.unique(cls)]))
-            )
-        return out
-
-    rows = []
-    for factor in factors:
-        cond = table.condition(factor)
-        values = list(dict.fromkeys(cond.tolist()))
-        if len(values) < 2:
-            continue
-        for v in values:
-            errs = {"same": [], "others": []}
-            lamps_all = []
-            for s in splits:
-                tr_rows = cond == v
-                sub = LampTable(table.lamp[tr_rows], classes, truth, valid)
-                est = fit_estimator(rad[tr_rows], sub, s.train, s.inner)
-                for key, mask in (("same", cond == v), ("others", cond != v)):
-                    t = LampTable(table.lamp[mask], classes, truth, valid)
-                    pred = np.asarray(est.predict(rad[mask]))
-                    errs[key].append(lamp_abs_errors(pred, t, s.test))
-                lamps_all.append(s.test)
-            lamps = np.concatenate(lamps_all)
-            same = cb_mae(np.concatenate(errs["same"]), lamps)
-            other = cb_mae(np.concatenate(errs["others"]), lamps)
-            row = {"factor": factor, "train_on": v}
-            for m, name in enumerate(METRICS):
-                row[f"{name}_mae_same"] = same[m]
-                row[f"{name}_mae_others"] = other[m]
-                row[f"{name}_mae_increase"] = other[m] - same[m]
-            rows.append(row)
-            log(
-                f"estimates {factor}={v}: MAE same {np.round(same, 3).tolist()}, "
-                f"others {np.round(other, 3).tolist()}"
-            )
-    return rows
-
-
 # ------------------------------------------------------------------------------
 # Figures
 
@@ -588,7 +476,10 @@ def main(argv=None) -> int:
     from bandopt.classify import (
         TRAINING_SCENARIOS,
         available_atmospheres,
+        choose_band_count,
         evaluate_band_set,
+        influence_estimates,
+        influence_identification,
         summary,
     )
     from bandopt.forward import scenario_table
@@ -676,8 +567,7 @@ def main(argv=None) -> int:
         n: max(per[m]["eval"]["level2"]["macro_f1"] for m in per)
         for n, per in searches.items()
     }
-    top = max(best_by_n.values())
-    n_star = min(n for n, v in best_by_n.items() if v >= top - 0.02)
+    n_star = choose_band_count(best_by_n).n_bands
     log(
         f"chosen band count {n_star} (nested level-2 F1 by n: "
         f"{ {k: round(v, 3) for k, v in best_by_n.items()} })"
@@ -736,7 +626,14 @@ def main(argv=None) -> int:
 
     # 5. research questions: influence of surface, atmosphere, Moon
     factors = ["surface", "atmosphere", "moon"]
-    ident_rows = influence_identification(table_eval, rec_bands, budget, factors, log)
+    kw = dict(noise_seed=budget["noise_seed"], fold_seed=budget["fold_seed"])
+    ident = influence_identification(table_eval, rec_bands, factors, **kw)
+    ident_rows = [r.as_dict() for r in ident]
+    for r in ident:
+        log(
+            f"identification {r.factor}={r.train_on}: same {r.macro_f1_same:.3f}, "
+            f"others {r.macro_f1_others:.3f}"
+        )
     est_bands, est_label = (
         (spectral, "issue-5 spectral recommendation")
         if spectral is not None
@@ -745,14 +642,15 @@ def main(argv=None) -> int:
             "classification bands (no issue-5 spectral recommendation yet)",
         )
     )
-    try:
-        est_rows = influence_estimates(table_eval, est_bands, budget, factors, log)
-        est_note = f"bandopt.estimate ridge estimator; bands: {est_label}"
-    except (
-        Exception
-    ) as err:  # the estimator API is another issue's; record, don't crash
-        est_rows, est_note = [], f"failed: {type(err).__name__}: {err}"
-        log(est_note)
+    est = influence_estimates(table_eval, est_bands, factors, **kw)
+    est_rows = [r.as_dict() for r in est]
+    for r in est:
+        log(
+            f"estimates {r.factor}={r.train_on}: MAE same "
+            f"{np.round(r.mae_same, 3).tolist()}, others "
+            f"{np.round(r.mae_others, 3).tolist()}"
+        )
+    est_note = f"bandopt.estimate ridge estimator; bands: {est_label}"
 
     # 6. write
     conf2 = ev_rec["level2"]["confusion"]

@@ -24,6 +24,18 @@ from ._features import (
     deduplicate as deduplicate,
     features as features,
 )
+from ._influence import (
+    BAND_COUNT_TOLERANCE as BAND_COUNT_TOLERANCE,
+    FACTORS as FACTORS,
+    BandCountChoice as BandCountChoice,
+    EstimationInfluence as EstimationInfluence,
+    IdentificationInfluence as IdentificationInfluence,
+    Influence as Influence,
+    choose_band_count as choose_band_count,
+    influence as influence,
+    influence_estimates as influence_estimates,
+    influence_identification as influence_identification,
+)
 from ._knn import (
     K_GRID as K_GRID,
     REJECT_THRESHOLD as REJECT_THRESHOLD,
