@@ -128,17 +128,6 @@ def _collect(out: Path, args):
     return ours
 
 
-def _pool(fold_results):
-    idx, err = [], []
-    for k in (0, 1, 2):
-        r = fold_results.get(k)
-        if r is None:
-            return None
-        idx += r["lamp_index"]
-        err += r["lamp_errors"]
-    return idx, err
-
-
 def v_band_experiment(ctx, seed=0, max_evals=300) -> dict:
     """Thesis Fig. 4.2: one free band + the fixed pan band, LER from the
     thesis-style ratio estimator `LER = a + b·L_B1/L_PAN` (fitted constants),
@@ -228,9 +217,8 @@ def compare(args) -> dict:
     from bandopt.estimate import METRICS, UNITS
     from bandopt.provenance import write_manifest
     from bandopt.search import (
+        compare_with_references,
         get_context,
-        mae_ci,
-        paired_reduction,
         plot_bands_over_lamps,
         print_progress,
         run_sweep,
@@ -240,88 +228,25 @@ def compare(args) -> dict:
 
     out = Path(args.out)
     ctx = get_context(args.preset)
-    classes = ctx.table.classes
     refs = run_sweep(
         reference_tasks(seed=args.seed, preset=args.preset),
         out,
         progress=print_progress,
     )
-    ref_sum = {}
-    for r in refs:
-        key = r["task"]["sensor"]
-        ref_sum[key] = {
-            "n_bands": len(r["bands"]["bands"]),
-            "title": REFERENCE_SENSORS[key].title,
-            **mae_ci(r["lamp_errors"], r["lamp_index"], classes),
-        }
-    ours_raw = _collect(out, args)
-    ours, pooled = {}, {}
-    for (target, n, pan, preset, noise), folds in sorted(ours_raw.items(), key=str):
-        if preset != args.preset or noise is not None:
-            continue
-        pool = _pool(folds)
-        if pool is None:
-            continue
-        name = f"{target}-n{n}" + ("+pan" if pan != "none" else "")
-        pooled[name] = pool
-        final = folds.get("final")
-        ours[name] = {
-            "target": target,
-            "n_bands": n,
-            "pan": pan,
-            **mae_ci(pool[1], pool[0], classes),
-            "final_bands": None if final is None else final["bands"],
-            "search_wall_s": float(sum(f["wall_s"] for f in folds.values())),
-            "spread": None if final is None else final["spread"],
-        }
-    # our best set per metric at pan + 5 (the goal), else the largest n available
-    best = {}
-    for m in METRICS:
-        cands = [
-            k
-            for k, v in ours.items()
-            if v["n_bands"] == 5
-            and v["pan"] != "none"
-            and v["target"] in (m.lower(), "all")
-        ]
-        if not cands:
-            cands = list(ours)
-        if cands:
-            best[m] = min(cands, key=lambda k: ours[k][m]["mae"])
-    reductions = {}
-    for key, r in zip(ref_sum, refs, strict=True):
-        reductions[key] = {}
-        for m, name in best.items():
-            red = paired_reduction(
-                pooled[name][1],
-                r["lamp_errors"],
-                pooled[name][0],
-                r["lamp_index"],
-                classes,
-            )[m]
-            reductions[key][m] = {
-                "ours": name,
-                **red,
-                "goal": GOAL[m],
-                "meets_goal": red["reduction"] >= GOAL[m],
-            }
-        # equal band count: our joint set with the same total number of bands
-        b = ref_sum[key]["n_bands"]
-        eq = f"all-n{b - 1}+pan"
-        if b >= 2 and eq in pooled:
-            reductions[key]["equal_band_count"] = {
-                "ours": eq,
-                **{
-                    m: paired_reduction(
-                        pooled[eq][1],
-                        r["lamp_errors"],
-                        pooled[eq][0],
-                        r["lamp_index"],
-                        classes,
-                    )[m]
-                    for m in METRICS
-                },
-            }
+    searched = {
+        (target, n, pan): folds
+        for (target, n, pan, preset, noise), folds in _collect(out, args).items()
+        if preset == args.preset and noise is None
+    }
+    cmp = compare_with_references(
+        searched,
+        refs,
+        ctx.table.classes,
+        GOAL,
+        titles={k: v.title for k, v in REFERENCE_SENSORS.items()},
+    )
+    ref_sum, ours = cmp.references, cmp.ours
+    best, reductions = cmp.best_for_goal, cmp.reductions
     summary = {
         "goal": GOAL,
         "metric_units": UNITS,

@@ -31,6 +31,11 @@ from ._analysis import (
     perturbed_bands as perturbed_bands,
     truth_sd as truth_sd,
 )
+from ._compare import (
+    Comparison as Comparison,
+    compare_with_references as compare_with_references,
+    pool_folds as pool_folds,
+)
 from ._global import (
     ALGORITHMS as ALGORITHMS,
     NloptObjective as NloptObjective,

@@ -1,0 +1,54 @@
+"""compare_with_references (library logic of experiments/search.py compare)."""
+
+import numpy as np
+import pytest
+
+from bandopt.search import compare_with_references, pool_folds
+
+
+def _result(errors, index, **extra):
+    return {
+        "lamp_errors": np.asarray(errors)[index].tolist(),
+        "lamp_index": list(map(int, index)),
+        "wall_s": 1.0,
+        **extra,
+    }
+
+
+def test_comparison_invariants():
+    """Our errors at half the reference's on every lamp: reduction 0.5 for
+    every metric; the goal is met exactly where it asks <= 0.5; a set with a
+    missing fold is skipped; the equal-band-count set is the joint one."""
+    rng = np.random.default_rng(0)
+    n = 24
+    classes = np.array(["a", "b", "c"] * (n // 3), object)
+    ref_err = rng.uniform(1.0, 2.0, (n, 3))
+    folds = [np.arange(k, n, 3) for k in range(3)]
+    bands4 = {"bands": [{"name": f"B{i}"} for i in range(4)]}
+    ref = _result(ref_err, np.arange(n), task={"sensor": "ref4"}, bands=bands4)
+
+    def searched(scale):
+        return {
+            k: _result(scale * ref_err, f, bands={}, spread=None)
+            for k, f in enumerate(folds)
+        }
+
+    sets = {
+        ("all", 3, "fixed"): searched(0.5),  # 3 + pan = the reference's 4 bands
+        ("all", 5, "fixed"): searched(0.5),
+        ("ler", 5, "fixed"): searched(0.8),
+        ("g", 5, "fixed"): {0: searched(0.1)[0]},  # folds 1, 2 missing
+    }
+    goal = {"LER": 0.4, "G": 0.5, "CCT": 0.6}
+    c = compare_with_references(sets, [ref], classes, goal, titles={"ref4": "R"})
+    assert set(c.ours) == {"all-n3+pan", "all-n5+pan", "ler-n5+pan"}
+    assert c.references["ref4"]["title"] == "R"
+    assert c.best_for_goal == {m: "all-n5+pan" for m in ("LER", "G", "CCT")}
+    for m, g in goal.items():
+        red = c.reductions["ref4"][m]
+        assert red["reduction"] == pytest.approx(0.5)
+        assert red["meets_goal"] == (0.5 >= g)
+    eq = c.reductions["ref4"]["equal_band_count"]
+    assert eq["ours"] == "all-n3+pan" and eq["CCT"]["reduction"] == pytest.approx(0.5)
+    assert pool_folds({0: ref, 1: ref}) is None  # fold 2 missing
+    assert set(c.as_dict()) == {"references", "ours", "best_for_goal", "reductions"}
