@@ -6,12 +6,13 @@ feature kinds:
 
 - `"log_ratio"` (default): centred log band ratios (the centred log-ratio
   transform, `Aitchison1982`), `x_j = log(L_j/L̄ + δ) - mean_k log(L_k/L̄ + δ)`
-  with `L̄` the mean band radiance of the pixel and `δ = LOG_FLOOR`. Chosen
-  because Euclidean distance between log ratios weighs a ratio change of 2x
-  the same whether the bands are bright or dim: a sodium lamp's weak blue
-  band (1 % of its red) and a warm LED's (20 %) are far apart, while in
-  sum-normalised radiance both sit near 0 and their difference is swamped
-  by the bright bands. Same transform as `bandopt.estimate.log_ratio_features`.
+  with `L̄` the mean band radiance of the pixel and
+  `δ = bandopt.estimate.LOG_FLOOR`. Chosen because Euclidean distance
+  between log ratios weighs a ratio change of 2x the same whether the bands
+  are bright or dim: a sodium lamp's weak blue band (1 % of its red) and a
+  warm LED's (20 %) are far apart, while in sum-normalised radiance both sit
+  near 0 and their difference is swamped by the bright bands. It is
+  `bandopt.estimate.log_ratio_features` (one copy).
 - `"sum_normalised"`: `L_j / Σ_k L_k` (compositional, bounded in [0, 1]; more
   robust to a noisy band near zero, less sensitive to weak bands).
 
@@ -23,12 +24,11 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from ..estimate import log_ratio_features
 from ..names import validate_method
 
 
 FEATURE_KINDS = ("log_ratio", "sum_normalised")
-LOG_FLOOR = 1e-6
-"""δ added to relative band radiance before the logarithm. [1]"""
 
 
 def resolve_kind(kind: str) -> str:
@@ -50,11 +50,7 @@ def features(
         total = jnp.sum(r, axis=-1, keepdims=True)
         ok = total > 0
         return jnp.where(ok, r / jnp.where(ok, total, 1.0), 1.0 / r.shape[-1])
-    scale = jnp.mean(r, axis=-1, keepdims=True)
-    ok = scale > 0
-    rel = jnp.where(ok, r / jnp.where(ok, scale, 1.0), 1.0)
-    x = jnp.log(rel + LOG_FLOOR)
-    return x - jnp.mean(x, axis=-1, keepdims=True)
+    return log_ratio_features(r)
 
 
 def deduplicate(

@@ -29,7 +29,13 @@ import numpy as np
 
 from ..classify import evaluate_band_set
 from ..datasets.lamps import library
-from ..estimate import LampTable, fit_estimator, lamp_abs_errors, lamp_truth
+from ..estimate import (
+    LampTable,
+    fit_estimator,
+    lamp_abs_errors,
+    lamp_truth,
+    log_ratio_features,
+)
 from ..folds import (
     N_OUTER_FOLDS,
     class_balanced_mae,
@@ -128,9 +134,7 @@ def _standin_estimation(radiance, spectra, grid, lamp_of, splits):
     )
     valid = np.isfinite(truth)
     valid[:, 2] &= ~np.asarray(m["CCT_flag"])
-    r = np.maximum(radiance, 0.0)
-    x = np.log(r / r.mean(1, keepdims=True).clip(1e-300) + 1e-6)
-    x -= x.mean(1, keepdims=True)
+    x = np.asarray(log_ratio_features(radiance))
     errs = np.full(truth.shape, np.nan)
     for s in splits:
         tr = np.isin(lamp_of, s.train)
