@@ -86,3 +86,16 @@ def test_missing_atmosphere_tables_name_make_atmospheres(tmp_path, monkeypatch):
     assert not atmosphere.tables_available()
     with pytest.raises(FileNotFoundError, match="make atmospheres"):
         atmosphere.require_tables()
+
+
+def test_algorithm_names_use_the_registry():
+    from bandopt.classify import SearchBox, SearchData, nlopt_search
+    from bandopt.search import global_search
+
+    with pytest.raises(ValueError, match=r"Unknown algorithm 'bfgs'; expected one of"):
+        global_search(lambda u: 0.0, lambda u: (0.0, u), 2, algorithm="bfgs")
+    with pytest.raises(ValueError, match="derivative-free algorithm 'mlsl'"):
+        w = np.arange(400.0, 900.0, 10.0)
+        data = SearchData(np.ones((2, w.size)), w, np.array([0, 1]), np.array([0, 1]),
+                          2, (), None, None)  # fmt: skip
+        nlopt_search(data, SearchBox(2), algorithm="mlsl")

@@ -35,6 +35,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..forward import ScenarioTable, radiance_from_response
+from ..names import validate_method
 from ..search import Space, global_search
 from ..sensor import BandSet, SensorParams, slit_super_gaussian
 from ._evaluate import class_order
@@ -204,11 +205,9 @@ def nlopt_search(
     """Maximise `cv_macro_f1` over the box with an nlopt derivative-free
     global method. Returns the best point, its unit-box `u`, inner macro F1,
     evaluations, status and the improvement trace."""
-    if str(algorithm).strip().lower() not in ("crs2", "direct"):
-        raise ValueError(
-            f"algorithm must be a derivative-free one ('crs2', 'direct'), "
-            f"got {algorithm!r}."
-        )
+    algorithm = validate_method(
+        algorithm, ("crs2", "direct"), "derivative-free algorithm"
+    )
     w = np.asarray(data.wavelength_nm)
 
     def value(u):

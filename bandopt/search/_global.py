@@ -22,6 +22,8 @@ from collections.abc import Callable
 import jax
 import numpy as np
 
+from ..names import validate_method
+
 
 ALGORITHMS = ("mlsl", "direct", "crs2")
 
@@ -123,11 +125,7 @@ def global_search(
     """
     import nlopt  # nlopt: start-up time, imported on first use
 
-    key = str(algorithm).strip().lower()
-    if key not in ALGORITHMS:
-        raise ValueError(
-            f"Unknown algorithm {algorithm!r}; expected one of {list(ALGORITHMS)}."
-        )
+    key = validate_method(algorithm, ALGORITHMS, "algorithm")
     if max_evals < 1:
         raise ValueError(f"max_evals must be >= 1, got {max_evals}.")
     obj = NloptObjective(value, value_and_grad, max_evals)
