@@ -92,3 +92,57 @@ def test_sphinx_build_offline(tmp_path, monkeypatch):
     for name in ("build_report", "update_recommendation", "check_consistency"):
         assert name in api
     assert (out / "guide.html").is_file() and (out / "tutorial.html").is_file()
+
+
+def _guide_block(title: str) -> str:
+    """The first python code block under the guide's section `title`."""
+    text = (DOCS / "guide.rst").read_text()
+    part = text[text.index(title):]
+    m = re.search(r"\.\. code-block:: python\n\n((?:   .*\n|\n)+)", part)
+    return "\n".join(line[3:] for line in m.group(1).splitlines())
+
+
+def test_guide_own_surface_snippet_runs(tmp_path, monkeypatch):
+    """The guide's 'own surfaces' code works on a measured reflectance file."""
+    import numpy as np
+
+    from bandopt.datasets.surfaces import mean_reflectance
+
+    _, refl = mean_reflectance(["sidewalk"])
+    w = np.arange(380, 901)
+    (tmp_path / "my_pavement.txt").write_text(
+        "".join(f"{a} {b:.5f}\n" for a, b in zip(w, refl[0], strict=True))
+    )
+    monkeypatch.chdir(tmp_path)
+    ns: dict = {}
+    exec(_guide_block("Bring your own surfaces"), ns)
+    scen = ns["scen"]
+    assert scen.surface_labels == ("my_pavement",)
+    np.testing.assert_allclose(
+        np.asarray(scen.factors.reflectance)[0], refl[0], atol=1e-5
+    )
+
+
+def test_guide_own_lamp_snippet_runs(tmp_path, monkeypatch):
+    from experiments.tutorial import export_lamps
+
+    files = export_lamps(tmp_path)
+    assert [f.stem for f in files] == sorted(["lspdd_2469", "lspdd_2470", "lspdd_2481"])
+    files[0].rename(tmp_path / "my_hps.csv")
+    monkeypatch.chdir(tmp_path)
+    exec(_guide_block("Bring your own lamp spectra"), {})
+
+
+def test_tutorial_picks_the_estimator_from_the_help(monkeypatch):
+    from experiments import tutorial
+
+    opt, label = tutorial.estimator_option()
+    import subprocess
+
+    helptext = subprocess.run(
+        [*tutorial.bandopt_cmd(), "evaluate", "--help"], capture_output=True,
+        text=True, check=True,
+    ).stdout
+    offered = "--estimator" in helptext and "inversion" in helptext
+    assert (opt == ["--estimator", "inversion"]) == offered
+    assert ("ridge" in label) == (opt == [])
