@@ -64,6 +64,7 @@ noise-aware: $(STAMP)
 
 classify: $(STAMP)  ## lamp-type classification (writes recommendation.json "classification")
 	$(BIN)/python -m experiments.classify
+	$(BIN)/python -m experiments.readme_sections classification
 
 radiometry: $(STAMP)  ## detection limits, saturation, bit depth (writes recommendation.json "radiometry")
 	$(BIN)/python -m experiments.radiometry
@@ -71,6 +72,7 @@ radiometry: $(STAMP)  ## detection limits, saturation, bit depth (writes recomme
 spatial: $(STAMP)  ## GSD needed, overlapping lamp types (writes recommendation.json "spatial")
 	$(BIN)/python -m experiments.spatial
 	$(BIN)/python -m experiments.spatial_overlap
+	$(BIN)/python -m experiments.readme_sections spatial
 
 report: $(STAMP)  ## results/report/index.html from results/ only (fails if two results files disagree)
 	$(BIN)/bandopt report --out results/report
