@@ -44,7 +44,7 @@ def update_readme_section(
 ) -> Path:
     """Replace experiment `name`'s section of `results/README.md`: the text
     between `<!-- name:start -->` and `<!-- name:end -->`. Without markers, a
-    hand-written section starting with the line `heading` (up to the next `## `
+    hand-written section starting with the line `heading` (up to the next level-2
     heading or marker) is replaced; else the section is appended. Sections are
     written from the experiment's own result files, never typed by hand."""
     root = Path(results_dir) if results_dir is not None else RESULTS_DIR
