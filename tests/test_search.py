@@ -276,7 +276,7 @@ def test_dask_local_cluster_same_code_path(tmp_path):
     tasks = _tasks(tmp_path)
     with (
         distributed.LocalCluster(
-            processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None
+            processes=False, n_workers=1, threads_per_worker=2, dashboard_address=":0"
         ) as cluster,
         distributed.Client(cluster) as client,
     ):
