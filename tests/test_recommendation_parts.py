@@ -127,7 +127,8 @@ def _reachable_writes(module: str) -> set[str]:
 
 
 def test_every_part_is_claimed_by_one_make_target():
-    assert set(_claims()) == PARTS
+    # the four parts the report reads; later experiments may claim more
+    assert set(_claims()) >= PARTS
 
 
 def test_each_claiming_target_reaches_the_shared_writer_for_its_part():

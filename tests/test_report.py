@@ -236,3 +236,23 @@ def test_empty_results_names_every_experiment_missing(tmp_path, capsys):
     page.feed((tmp_path / "out" / "index.html").read_text())
     assert page.sections == [sid for sid, _, _ in SECTIONS]
     assert page.missing_boxes >= len(EXPERIMENTS)
+
+
+def test_inversion_coverage_is_read_from_results_estimate(tmp_path):
+    res_dir = tmp_path / "res"
+    (res_dir / "estimate").mkdir(parents=True)
+    cov = {"nominal_coverage": 0.9,
+           "held_out_lamps": {"ours/unknown": {"LER_coverage": 0.85,
+                                                "G_coverage": None}}}
+    (res_dir / "estimate" / "coverage.json").write_text(json.dumps(cov))
+    res = build_report(res_dir, tmp_path / "out")
+    assert "estimate" not in res.missing
+    page = _Page()
+    page.feed(res.path.read_text())
+    got = {a["data-ptr"]: a["data-value"] for a in page.nums
+           if a["data-src"] == "estimate/coverage.json"}
+    assert got == {
+        "/nominal_coverage": "0.9",
+        "/held_out_lamps/ours~1unknown/LER_coverage": "0.85",
+        "/held_out_lamps/ours~1unknown/G_coverage": "None",
+    }

@@ -522,10 +522,10 @@ def _find_coverage(obj, path=()):
     """(pointer tokens, value) of every number under a key with 'coverage'."""
     if isinstance(obj, dict):
         for k, v in obj.items():
-            if "coverage" in str(k).lower() and isinstance(v, int | float) and not (
-                isinstance(v, bool)
+            if "coverage" in str(k).lower() and (
+                v is None or (isinstance(v, int | float) and not isinstance(v, bool))
             ):
-                yield (*path, k), v
+                yield (*path, k), v  # None: not estimable, shown as n/a
             else:
                 yield from _find_coverage(v, (*path, k))
     elif isinstance(obj, list):
