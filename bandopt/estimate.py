@@ -35,7 +35,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from .photometry import CCT_MAX_K, CCT_MIN_K
+from .photometry import CCT_MAX_K, CCT_MIN_K, G_CAP, K_M_LM_PER_W
 
 
 METRICS: tuple[str, ...] = ("LER", "G", "CCT")
@@ -367,6 +367,8 @@ class Estimator(eqx.Module):
     fits: tuple[RidgeFit, RidgeFit, RidgeFit]
     lam: tuple[float, float, float] = eqx.field(static=True)
     degree: tuple[int, int, int] = eqx.field(static=True)
+    lower: tuple[float, float, float] = eqx.field(static=True, default=None)
+    upper: tuple[float, float, float] = eqx.field(static=True, default=None)
 
     def predict(
         self, radiance: Float[ArrayLike, "*batch b"]
@@ -376,9 +378,40 @@ class Estimator(eqx.Module):
             [f.predict(x[d]) for f, d in zip(self.fits, self.degree, strict=True)],
             axis=-1,
         )
-        lo, hi = MIRED / CCT_RANGE_K[1], MIRED / CCT_RANGE_K[0]
-        model = model.at[..., 2].set(jnp.clip(model[..., 2], lo, hi))
-        return from_model_space(model)
+        return from_model_space(bound_model_space(model, self.lower, self.upper))
+
+
+MODEL_BOUNDS = (
+    (0.0, -G_CAP, MIRED / CCT_RANGE_K[1]),
+    (K_M_LM_PER_W, G_CAP, MIRED / CCT_RANGE_K[0]),
+)
+"""Physical range in model space: LER 0-683 lm/W, G within ±its cap, CCT
+1000-25000 K (as mired 40-1000). No prediction ever leaves it."""
+
+
+def training_bounds(table: "LampTable", lamps) -> tuple[tuple, tuple]:
+    """The training lamps' range of each metric in model space, within
+    `MODEL_BOUNDS` (a regression never predicts beyond what it was shown)."""
+    y = np.asarray(to_model_space(table.truth[np.asarray(lamps, int)]))
+    ok = np.asarray(table.valid[np.asarray(lamps, int)])
+    lo, hi = [], []
+    for m in range(3):
+        v = y[ok[:, m], m]
+        a = float(v.min()) if v.size else MODEL_BOUNDS[0][m]
+        b = float(v.max()) if v.size else MODEL_BOUNDS[1][m]
+        lo.append(max(a, MODEL_BOUNDS[0][m]))
+        hi.append(min(b, MODEL_BOUNDS[1][m]))
+    return tuple(lo), tuple(hi)
+
+
+def bound_model_space(model, lower=None, upper=None):
+    """Clip (…, 3) model-space predictions to [lower, upper] (default: the
+    physical range)."""
+    model = jnp.asarray(model)
+    lead = (1,) * (model.ndim - 1)
+    lo = jnp.asarray(MODEL_BOUNDS[0] if lower is None else lower).reshape(*lead, 3)
+    hi = jnp.asarray(MODEL_BOUNDS[1] if upper is None else upper).reshape(*lead, 3)
+    return jnp.clip(model, lo, hi)
 
 
 @jax.jit
@@ -433,7 +466,136 @@ def fit_estimator(
         fits.append(_fit_jit(xs[d], y[:, m], w_train * vf[:, m], lam))
         lams.append(lam)
         degs.append(d)
-    return Estimator(tuple(fits), tuple(lams), tuple(degs))
+    lo, hi = training_bounds(table, train_lamps)
+    return Estimator(tuple(fits), tuple(lams), tuple(degs), lo, hi)
+
+
+KERNEL_GAMMAS: tuple[float, ...] = (0.03, 0.1, 0.3, 1.0)
+"""RBF widths `γ` (per standardised feature, `k = exp(-γ |Δz|²/p)`)."""
+
+KERNEL_LAMBDAS: tuple[float, ...] = (1e-3, 1e-2, 1e-1, 1.0)
+
+KERNEL_MAX_ROWS = 2000
+"""Training rows of a kernel ridge (a seeded class-balanced draw when more)."""
+
+
+class KernelEstimator(eqx.Module):
+    """Kernel ridge (RBF on standardised centred log band ratios) per metric,
+    `γ` and `λ` chosen by inner cross-validation; predictions bounded like
+    `Estimator`. `predict` returns `(…, 3)` in [lm W⁻¹], [1], [K]."""
+
+    mean: Float[Array, " p"]
+    scale: Float[Array, " p"]
+    z: Float[Array, "n p"]
+    alpha: Float[Array, "n 3"]
+    offset: Float[Array, " 3"]
+    gamma: tuple[float, float, float] = eqx.field(static=True)
+    lam: tuple[float, float, float] = eqx.field(static=True)
+    lower: tuple[float, float, float] = eqx.field(static=True)
+    upper: tuple[float, float, float] = eqx.field(static=True)
+
+    def predict(
+        self, radiance: Float[ArrayLike, "*batch b"]
+    ) -> Float[Array, "*batch 3"]:
+        x = log_ratio_features(radiance, 1)
+        lead = (1,) * (x.ndim - 1)
+        z = (x - self.mean.reshape(*lead, -1)) / self.scale.reshape(*lead, -1)
+        d2 = _sqdist(z.reshape(-1, z.shape[-1]), self.z)
+        cols = [
+            jnp.exp(-g * d2) @ self.alpha[:, m] + self.offset[m]
+            for m, g in enumerate(self.gamma)
+        ]
+        model = jnp.stack(cols, axis=-1).reshape(*x.shape[:-1], 3)
+        return from_model_space(bound_model_space(model, self.lower, self.upper))
+
+
+def _sqdist(a, b):
+    """Squared distances per feature, (n, m)."""
+    d = (
+        jnp.sum(a**2, 1)[:, None]
+        + jnp.sum(b**2, 1)[None, :]
+        - 2 * jnp.matmul(a, b.T, precision=jax.lax.Precision.HIGHEST)
+    )
+    return jnp.maximum(d, 0.0) / a.shape[1]
+
+
+def _krr(z, y, w, gamma, lam):
+    """Weighted kernel ridge: minimise `Σ wᵢ(yᵢ - f(zᵢ))² + λ|f|²` with an
+    unpenalised offset (the weighted mean); returns (alpha (n, 3), offset (3,))."""
+    sw = jnp.sum(w)
+    off = (w @ y) / sw
+    k = jnp.exp(-gamma * _sqdist(z, z))
+    wn = w / jnp.mean(w)
+    a = jnp.linalg.solve(k + lam * jnp.diag(1.0 / wn), y - off[None, :])
+    return a, off
+
+
+def fit_kernel_estimator(
+    radiance: Float[ArrayLike, "n b"],
+    table: "LampTable",
+    train_lamps: np.ndarray,
+    inner: Sequence[tuple[np.ndarray, np.ndarray]],
+    *,
+    gammas: Sequence[float] = KERNEL_GAMMAS,
+    lambdas: Sequence[float] = KERNEL_LAMBDAS,
+    max_rows: int = KERNEL_MAX_ROWS,
+    seed: int = 0,
+) -> KernelEstimator:
+    """Fit the kernel-ridge baseline on `train_lamps` (class-balanced weights,
+    at most `max_rows` training rows drawn with `seed`), choosing `γ`, `λ` per
+    metric by the class-balanced validation MSE over the `inner` splits."""
+    rad = np.asarray(radiance, float)
+    y_all, valid = (np.asarray(a) for a in table.scenario_truth())
+    rng = np.random.default_rng(seed)
+
+    def rows_of(lamps):
+        w = table.scenario_weights(lamps)
+        rows = np.flatnonzero(w > 0)
+        if rows.size > max_rows:
+            rows = np.sort(
+                rng.choice(rows, max_rows, replace=False, p=w[rows] / w[rows].sum())
+            )
+        return rows, w
+
+    def prep(rows, w):
+        x = log_ratio_features(jnp.asarray(rad[rows]), 1)
+        mu, sd = weighted_standardisation(x, jnp.asarray(w[rows]))
+        return (x - mu[None]) / sd[None], mu, sd
+
+    scores = np.zeros((len(gammas), len(lambdas), 3))
+    for tr, va in inner:
+        rt, wt = rows_of(tr)
+        rv, wv = rows_of(va)
+        zt, mu, sd = prep(rt, wt)
+        zv = (log_ratio_features(jnp.asarray(rad[rv]), 1) - mu[None]) / sd[None]
+        yt = np.where(valid[rt], y_all[rt], 0.0)
+        for gi, g in enumerate(gammas):
+            kv = jnp.exp(-g * _sqdist(zv, zt))
+            for li, lam in enumerate(lambdas):
+                for m in range(3):
+                    wm = jnp.asarray(wt[rt] * valid[rt, m])
+                    a, off = _krr(zt, jnp.asarray(yt[:, m : m + 1]), wm, g, lam)
+                    pv = np.asarray(kv @ a[:, 0] + off[0])
+                    vw = wv[rv] * valid[rv, m]
+                    err = (pv - np.where(valid[rv, m], y_all[rv, m], 0.0)) ** 2
+                    scores[gi, li, m] += np.sum(vw * err) / max(vw.sum(), 1e-300)
+    rt, wt = rows_of(train_lamps)
+    z, mu, sd = prep(rt, wt)
+    yt = np.where(valid[rt], y_all[rt], 0.0)
+    alphas, offs, gs, ls = [], [], [], []
+    for m in range(3):
+        gi, li = np.unravel_index(int(np.argmin(scores[:, :, m])), scores.shape[:2])
+        g, lam = float(gammas[gi]), float(lambdas[li])
+        wm = jnp.asarray(wt[rt] * valid[rt, m])
+        a, off = _krr(z, jnp.asarray(yt[:, m : m + 1]), wm, g, lam)
+        alphas.append(a[:, 0])
+        offs.append(off[0])
+        gs.append(g)
+        ls.append(lam)
+    lo, hi = training_bounds(table, train_lamps)
+    return KernelEstimator(
+        mu, sd, z, jnp.stack(alphas, 1), jnp.stack(offs), tuple(gs), tuple(ls), lo, hi
+    )
 
 
 def lamp_abs_errors(
@@ -466,11 +628,13 @@ __all__ = [
     "SEARCH_LAMBDA",
     "TARGETS",
     "Estimator",
+    "KernelEstimator",
     "LampTable",
     "RidgeFit",
     "cv_loss",
     "cv_residuals",
     "fit_estimator",
+    "fit_kernel_estimator",
     "fit_ratio_estimator",
     "fit_ridge",
     "from_model_space",

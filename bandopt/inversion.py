@@ -1,0 +1,821 @@
+"""Physics-based inversion: band radiances -> lamp spectrum, surface, metrics.
+
+A pixel's band radiance is modelled as the forward model builds it
+(`bandopt.scene`): lamp spectrum x surface reflectance x upward transmittance,
+plus moonlight on the same surface and the Moon's path radiance,
+
+    y_b = α Σ_λ W_bλ T(λ) ρ(λ) S(λ)/π + β Σ_λ W_bλ [T ρ M/π + P](λ),  α, β ≥ 0,
+
+with `W` the band weights (`scene.band_weights`), `S` a lamp spectrum per
+lumen, `M`, `P` the Moon's ground irradiance and path radiance, `α` the
+illuminance and `β` the Moon's brightness. Nothing is assumed about the
+pixel's brightness: `α` and `β` are solved for in closed form.
+
+**Priors (learned from training lamps and surfaces only).**
+- Lamp: a class-balanced mixture over the training lamps (each level-2 class
+  the same prior mass, each lamp the same within its class) — the sparse
+  non-negative mixture of issue 12 in its one-component limit, so the posterior
+  is a weighted set of real, measured spectra. Measured lamps of classes too
+  small to be scored (e.g. low-pressure sodium) always belong to the prior:
+  they are never scored, so they cannot leak.
+- Surface: a low-rank basis (weighted PCA, each surface type the same weight)
+  of the library reflectances (`bandopt.datasets.surfaces`), with candidate
+  surfaces given by what is known (`SURFACE_MODES`): nothing (the mean of
+  every road-scene surface type), the surface class (its mean and measured
+  samples), or a daytime Sentinel-2 MSI measurement (`ESA2017`) with the
+  L2A accuracy specification `σ = 0.05 ρ + 0.005` (`Doxani2018`) inverted to
+  basis coefficients by regularised least squares.
+- Atmosphere: the training atmospheres, equally likely.
+
+**Estimates.** Each candidate (lamp, surface, atmosphere) is scored by its
+weighted least-squares misfit χ² with the relative band error `σ_rel`
+(chosen on inner folds); the posterior over lamps is `∝ prior · Σ exp(-χ²/2)`.
+LER, G and CCT are posterior means of the candidates' metrics, computed from
+their measured spectra with `bandopt.photometry` — physical by construction
+(a convex combination of real lamps' values). CCT is averaged in mired over
+lamps where a CCT is meaningful and is `None` when the posterior says the lamp
+most likely has none (|Duv| > 0.05).
+
+**Refinement (optimistix).** The best candidates are then refined by
+`optimistix.LevenbergMarquardt`: the surface's basis coefficients and a smooth
+multiplicative change of the lamp spectrum, `S(λ) = S_k(λ) exp(Σ c_j φ_j(λ))`
+(`φ_j` low-order Legendre polynomials), with Gaussian priors on both as
+residuals. The refined spectra's metrics replace the discrete ones only for
+metrics where the inner folds show the refinement helps (`Inversion.refine`).
+
+**Intervals and reject.** The 90 % interval is the posterior's 5-95 %
+range widened by a split-conformal factor (`Romano2019`) calibrated on the
+inner folds' held-out lamps (class-balanced), then clipped to the physical
+range. A pixel whose best reduced χ² exceeds the 99th percentile of the inner
+folds' held-out lamps is flagged `unexplained` (and its type is not guessed).
+"""
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.scipy.special import logsumexp
+
+from .datasets import surfaces as surf_mod
+from .datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT
+from .estimate import CCT_RANGE_K, METRICS, MIRED, lamp_truth
+from .folds import class_balanced_weights
+from .photometry import G_CAP, K_M_LM_PER_W
+
+
+SURFACE_MODES = ("unknown", "class", "measured")
+"""What the estimator is told about the surface under the lamp."""
+
+PRIOR_SURFACES = (
+    "asphalt",
+    "road",
+    "parking_lot",
+    "sidewalk",
+    "driveway",
+    "composition_shingle",
+    "wood_shingle",
+    "tile_roof",
+    "metal_roof",
+    "concrete_roof_tile",
+    "soil",
+    "sand",
+    "grass",
+)
+"""Surface types a street light may shine on (water and snow left out: one
+spectrum each and not road scenes)."""
+
+SURFACE_RANK = 12
+"""Basis size of the surface prior: reproduces the mean reflectance of every
+road-scene type within 0.4 % (rank 6: 4.5 % for asphalt) over 380-900 nm."""
+
+SIGMA_REL_GRID = (0.003, 0.01, 0.03, 0.1, 0.3)
+"""Relative band-error candidates `σ_rel`, chosen on inner folds."""
+
+SIGMA_FLOOR = 1e-3
+"""Absolute band-error floor relative to the pixel's mean band radiance."""
+
+S2_SIGMA = (0.05, 0.005)
+"""Sentinel-2 L2A surface reflectance accuracy `σ = a ρ + b` (`Doxani2018`)."""
+
+S2_FILE = Path(__file__).parent / "sensor" / "data" / "sentinel2a_msi_srf.csv"
+
+COVERAGE = 0.9
+"""Nominal coverage of the intervals."""
+
+UNEXPLAINED_QUANTILE = 0.99
+"""Known-lamp quantile of the reduced χ² above which a pixel is unexplained."""
+
+PHYSICAL_RANGE = {
+    "LER": (0.0, K_M_LM_PER_W),
+    "G": (-G_CAP, G_CAP),
+    "CCT": CCT_RANGE_K,
+}
+"""Bounds no estimate or interval ever leaves. [lm W⁻¹], [1], [K]"""
+
+INTERVAL_FLOOR = np.array([1.0, 0.005, 2.0])
+"""Smallest half-width of a posterior range before conformal scaling, in model
+space (LER [lm W⁻¹], G [1], CCT [mired]): a posterior concentrated on one
+lamp still gets an interval."""
+
+N_LEGENDRE = 4
+"""Smooth lamp-shape terms `φ_1..φ_4` of the refinement."""
+
+REFINE_TOP = 3
+"""Candidates per pixel refined by Levenberg-Marquardt."""
+
+CHUNK = 512
+"""Pixels scored per compiled call (bounds memory to ~100 MB)."""
+
+
+# ------------------------------------------------------------------------------
+# Scene conditions and priors
+
+
+@dataclasses.dataclass(frozen=True)
+class Conditions:
+    """What the inversion knows of the scene besides lamp and surface.
+
+    - `wavelength_nm`: grid. (w,) [nm]
+    - `t_up`: upward transmittance of each candidate atmosphere. (a, w) [1]
+    - `moon`: Moon's irradiance on the ground `T_down E_moon cos θ` of its
+      brightest state, or None for moonless scenes. (a, w) [W m⁻² nm⁻¹]
+    - `path`: the Moon's path radiance, same state, or None. (a, w)
+    - `labels`: atmosphere labels.
+    """
+
+    wavelength_nm: np.ndarray
+    t_up: np.ndarray
+    moon: np.ndarray | None
+    path: np.ndarray | None
+    labels: tuple[str, ...]
+
+    @classmethod
+    def from_scenarios(cls, scen) -> "Conditions":
+        """Atmospheres and the brightest Moon state of a `scene.ScenarioSet`."""
+        f = scen.factors
+        moon = path = None
+        if f.moon_ground is not None:
+            mg = np.asarray(f.moon_ground)
+            k = int(np.argmax(mg.sum(axis=(0, 2))))
+            if mg[:, k].max() > 0:
+                moon = mg[:, k]
+                path = None if f.path is None else np.asarray(f.path)[:, k]
+        return cls(
+            np.asarray(f.wavelength_nm, float),
+            np.asarray(f.t_up, float),
+            moon,
+            path,
+            tuple(scen.atmosphere_labels),
+        )
+
+    @classmethod
+    def clear(cls, wavelength_nm) -> "Conditions":
+        """No atmosphere (T = 1), no Moon."""
+        w = np.asarray(wavelength_nm, float)
+        return cls(w, np.ones((1, w.size)), None, None, ("none",))
+
+
+@dataclasses.dataclass(frozen=True)
+class SurfaceBasis:
+    """Low-rank reflectance basis `ρ = mean + coords @ basis`.
+
+    - `mean`: (w,) [1]; `basis`: (r, w) orthonormal rows; `scale`: prior SD of
+      each coefficient (r,); `types`: surface types, `type_coords`: their mean
+      reflectances' coefficients (t, r).
+    """
+
+    wavelength_nm: np.ndarray
+    mean: np.ndarray
+    basis: np.ndarray
+    scale: np.ndarray
+    types: tuple[str, ...]
+    type_coords: np.ndarray
+
+    def coords(self, reflectance) -> np.ndarray:
+        """Least-squares coefficients of reflectances on the grid, (n, r)."""
+        return (np.atleast_2d(reflectance) - self.mean) @ self.basis.T
+
+    def reflectance(self, coords) -> np.ndarray:
+        return self.mean + np.atleast_2d(coords) @ self.basis
+
+    def class_coords(self, name: str, n: int = 11, seed: int = 0) -> np.ndarray:
+        """Candidates when the class is known: its mean and `n` measured
+        samples (drawn with `seed`), (n + 1, r)."""
+        name = surf_mod.resolve_surface(name)
+        grid = self.wavelength_nm
+        _, mean = surf_mod.mean_reflectance([name], grid)
+        s = surf_mod.sample_reflectance(name, n, seed, grid)
+        return self.coords(np.vstack([mean, s]))
+
+
+def surface_basis(
+    wavelength_nm,
+    types: Sequence[str] = PRIOR_SURFACES,
+    rank: int = SURFACE_RANK,
+) -> SurfaceBasis:
+    """Type-balanced weighted PCA of every library reflectance of `types`."""
+    grid = np.asarray(wavelength_nm, float)
+    rows, wts, means = [], [], []
+    for t in types:
+        s = surf_mod.surface(t).resample(grid)
+        r = np.asarray(s.reflectance, float)
+        rows.append(r)
+        wts.append(np.full(r.shape[0], 1.0 / (len(types) * r.shape[0])))
+        means.append(r.mean(axis=0))
+    x, w = np.vstack(rows), np.concatenate(wts)
+    mu = w @ x
+    xc = (x - mu) * np.sqrt(w)[:, None]
+    _, sv, vt = np.linalg.svd(xc, full_matrices=False)
+    basis = vt[:rank]
+    scale = sv[:rank]  # weights sum to 1: singular values are the coefficient SDs
+    return SurfaceBasis(
+        grid, mu, basis, scale, tuple(types), (np.stack(means) - mu) @ basis.T
+    )
+
+
+def sentinel2_response(wavelength_nm) -> tuple[tuple[str, ...], np.ndarray]:
+    """Sentinel-2A MSI band responses inside the grid (bands entirely on it),
+    `(names, (b, w))`, from the vendored Py6S tables (`ESA2017`)."""
+    data = np.genfromtxt(S2_FILE, delimiter=",", names=True)
+    grid = np.asarray(wavelength_nm, float)
+    names, rows = [], []
+    for name in data.dtype.names[1:]:
+        r = np.asarray(data[name], float)
+        on = data["wavelength_nm"][r > 0]
+        if on.min() < grid[0] or on.max() > grid[-1]:
+            continue
+        names.append(name)
+        rows.append(np.interp(grid, data["wavelength_nm"], r, left=0.0, right=0.0))
+    return tuple(names), np.stack(rows)
+
+
+def observe_sentinel2(reflectance, wavelength_nm, *, seed: int = 0) -> np.ndarray:
+    """Daytime Sentinel-2 band reflectances of surfaces with the L2A error
+    `σ = 0.05 ρ + 0.005` (Gaussian, `numpy.random.default_rng(seed)`), (n, b)."""
+    _, resp = sentinel2_response(wavelength_nm)
+    r = np.atleast_2d(reflectance)
+    band = r @ resp.T / resp.sum(axis=1)
+    sd = S2_SIGMA[0] * band + S2_SIGMA[1]
+    return band + sd * np.random.default_rng(seed).standard_normal(band.shape)
+
+
+def surface_from_sentinel2(observed, basis: SurfaceBasis) -> np.ndarray:
+    """Basis coefficients from Sentinel-2 band reflectances: the Gaussian
+    posterior mean under the basis prior and the L2A error model, (n, r)."""
+    _, resp = sentinel2_response(basis.wavelength_nm)
+    h = resp / resp.sum(axis=1, keepdims=True)
+    a = h @ basis.basis.T  # (b, r)
+    m0 = h @ basis.mean
+    obs = np.atleast_2d(observed)
+    out = np.empty((obs.shape[0], basis.basis.shape[0]))
+    for i, o in enumerate(obs):
+        sd = S2_SIGMA[0] * np.clip(o, 0, None) + S2_SIGMA[1]
+        aw = a / sd[:, None]
+        lhs = aw.T @ aw + np.diag(1.0 / basis.scale**2)
+        out[i] = np.linalg.solve(lhs, aw.T @ ((o - m0) / sd))
+    return out
+
+
+@dataclasses.dataclass(frozen=True)
+class LampPrior:
+    """Training lamps of the prior: spectra per lumen (k, w) [W nm⁻¹ lm⁻¹],
+    their types, photometric truth (k, 3) in `METRICS` order with validity, and
+    log prior weights (class-balanced over level-2 classes)."""
+
+    ids: tuple[str, ...]
+    spectra: np.ndarray
+    level1: tuple[str, ...]
+    level2: tuple[str, ...]
+    truth: np.ndarray
+    valid: np.ndarray
+    log_prior: np.ndarray
+
+
+def lamp_prior(ids, spectra, level1, level2, wavelength_nm) -> LampPrior:
+    """Build the prior from training lamps (level2 may repeat level1 for lamps
+    without a level-2 class)."""
+    spectra = np.asarray(spectra, float)
+    truth, valid = lamp_truth(spectra, wavelength_nm)
+    l2 = tuple(str(x) for x in level2)
+    w = class_balanced_weights(np.asarray(l2, dtype=object))
+    return LampPrior(tuple(ids), spectra, tuple(level1), l2, truth, valid, np.log(w))
+
+
+# ------------------------------------------------------------------------------
+# Core
+
+
+def _design(spectra, weights, cond: Conditions, basis: SurfaceBasis):
+    """Band terms: lamp x surface `A (k, a, b, r+1)`, Moon `Q (a, b, r+1)`."""
+    rho = np.vstack([basis.mean, basis.basis]) / math.pi  # (r+1, w)
+    tw = cond.t_up[:, None, :] * weights[None]  # (a, b, w)
+    a = jnp.einsum(
+        "kw,abw,rw->kabr", spectra, tw, rho, precision=jax.lax.Precision.HIGHEST
+    )
+    if cond.moon is None:
+        return np.asarray(a), None
+    q = np.einsum("aw,abw,rw->abr", cond.moon, tw, rho)
+    if cond.path is not None:
+        q[..., 0] += np.einsum("aw,bw->ab", cond.path, weights)
+    return np.asarray(a), q
+
+
+def _chi2(yn, w, p, q):
+    """Weighted NNLS misfit of `yn ≈ α p + β q` (α, β ≥ 0) in closed form,
+    broadcast over the leading axes of `p`, `q` (last axis: bands)."""
+
+    def dot(u, v):
+        nd = max(u.ndim, v.ndim)
+        u = u.reshape((1,) * (nd - u.ndim) + u.shape)
+        v = v.reshape((1,) * (nd - v.ndim) + v.shape)
+        return jnp.sum(w.reshape((1,) * (nd - 1) + (-1,)) * u * v, axis=-1)
+
+    spp, spy, syy = dot(p, p), dot(p, yn), dot(yn, yn)
+    tiny = 1e-300
+    a1 = jnp.maximum(spy, 0.0) / jnp.maximum(spp, tiny)
+    chi_a = syy - a1 * spy
+    if q is None:
+        return chi_a
+    sqq, spq, sqy = dot(q, q), dot(p, q), dot(q, yn)
+    det = spp * sqq - spq**2
+    ok = det > 1e-12 * jnp.maximum(spp * sqq, tiny)
+    dsafe = jnp.where(ok, det, 1.0)
+    a2 = (sqq * spy - spq * sqy) / dsafe
+    b2 = (spp * sqy - spq * spy) / dsafe
+    both = ok & (a2 >= 0) & (b2 >= 0)
+    chi_ab = syy - a2 * spy - b2 * sqy
+    b1 = jnp.maximum(sqy, 0.0) / jnp.maximum(sqq, tiny)
+    chi_b = syy - b1 * sqy
+    best = jnp.minimum(chi_a, chi_b)
+    return jnp.maximum(jnp.where(both, jnp.minimum(chi_ab, best), best), 0.0)
+
+
+@jax.jit
+def _score_chunk(y, cand, log_ps, a, q, log_pk, sigma_rel):
+    """Per pixel: log evidence per lamp (k,), best χ² (), best (surface, atm)
+    index per lamp. `y (n, b)`, `cand (n, s, r+1)`, `log_ps (n, s)`."""
+
+    def one(yp, c, lps):
+        m = jnp.mean(jnp.abs(yp))
+        yn = yp / jnp.where(m > 0, m, 1.0)
+        sd = sigma_rel * jnp.abs(yn) + SIGMA_FLOOR
+        w = 1.0 / sd**2
+        p = jnp.einsum("kabr,sr->ksab", a, c)
+        qq = None if q is None else jnp.einsum("abr,sr->sab", q, c)[None]
+        chi = _chi2(yn, w, p, qq)  # (k, s, a)
+        lw = -0.5 * chi + lps[None, :, None]
+        lk = logsumexp(lw.reshape(lw.shape[0], -1), axis=1) + log_pk
+        flat = jnp.argmin(chi.reshape(chi.shape[0], -1), axis=1)
+        return lk, jnp.min(chi), flat
+
+    return jax.vmap(one)(y, cand, log_ps)
+
+
+def _score(y, cand, log_ps, a, q, log_pk, sigma_rel):
+    y = np.asarray(y, float)
+    outs = []
+    for i in range(0, y.shape[0], CHUNK):
+        sl = slice(i, i + CHUNK)
+        outs.append(
+            _score_chunk(
+                jnp.asarray(y[sl]),
+                jnp.asarray(cand[sl]),
+                jnp.asarray(log_ps[sl]),
+                jnp.asarray(a),
+                None if q is None else jnp.asarray(q),
+                jnp.asarray(log_pk),
+                float(sigma_rel),
+            )
+        )
+    return tuple(np.concatenate([np.asarray(o[j]) for o in outs]) for j in range(3))
+
+
+def _weighted_quantile(values, weights, qs):
+    """Quantiles of discrete distributions row-wise: values (k,), weights (n, k)."""
+    order = np.argsort(values)
+    v, w = values[order], weights[:, order]
+    c = np.cumsum(w, axis=1)
+    c = c / np.maximum(c[:, -1:], 1e-300)
+    return np.stack(
+        [v[np.minimum((c < q).sum(axis=1), v.size - 1)] for q in qs], axis=-1
+    )
+
+
+def _posterior_metrics(post, prior: LampPrior):
+    """Posterior mean and 5-95 % range in model space (CCT as mired), and
+    P(CCT meaningful). post (n, k) sums to 1 per row."""
+    t = prior.truth.copy()
+    t[:, 2] = np.where(
+        prior.valid[:, 2], MIRED / np.where(prior.valid[:, 2], t[:, 2], 1), 0
+    )
+    n = post.shape[0]
+    mean = np.empty((n, 3))
+    rng = np.empty((n, 3, 2))
+    p_cct = post @ prior.valid[:, 2].astype(float)
+    lo_q, hi_q = (1 - COVERAGE) / 2, 1 - (1 - COVERAGE) / 2
+    for m in range(3):
+        ok = prior.valid[:, m]
+        w = post * ok[None]
+        s = np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
+        w = w / s
+        vals = np.where(ok, t[:, m], 0.0)
+        mean[:, m] = w @ vals
+        if ok.any():
+            rng[:, m] = _weighted_quantile(vals[ok], w[:, ok], (lo_q, hi_q))
+        else:
+            rng[:, m] = np.nan
+    return mean, rng, p_cct
+
+
+def _to_model(values):
+    v = np.array(values, float)
+    v[..., 2] = MIRED / v[..., 2]
+    return v
+
+
+def _model_bounds():
+    lo = np.array(
+        [PHYSICAL_RANGE["LER"][0], PHYSICAL_RANGE["G"][0], MIRED / CCT_RANGE_K[1]]
+    )
+    hi = np.array(
+        [PHYSICAL_RANGE["LER"][1], PHYSICAL_RANGE["G"][1], MIRED / CCT_RANGE_K[0]]
+    )
+    return lo, hi
+
+
+# ------------------------------------------------------------------------------
+# Fitted inversion
+
+
+@dataclasses.dataclass(frozen=True)
+class LampSet:
+    """Measured lamps with their types: the rows an inversion trains on.
+    `spectra` (l, w) per lumen on the conditions' grid."""
+
+    ids: tuple[str, ...]
+    spectra: np.ndarray
+    level1: tuple[str, ...]
+    level2: tuple[str, ...]
+
+    def take(self, index) -> "LampSet":
+        idx = np.asarray(index, int)
+        return LampSet(
+            tuple(self.ids[i] for i in idx),
+            self.spectra[idx],
+            tuple(self.level1[i] for i in idx),
+            tuple(self.level2[i] for i in idx),
+        )
+
+    def __add__(self, other: "LampSet") -> "LampSet":
+        return LampSet(
+            self.ids + other.ids,
+            np.vstack([self.spectra, other.spectra]),
+            self.level1 + other.level1,
+            self.level2 + other.level2,
+        )
+
+
+def library_lamps(wavelength_nm, *, scored: bool) -> LampSet:
+    """Measured library lamps on a grid: the scored ones (`scored=True`) or the
+    measured lamps of classes too small to score (`scored=False`, e.g.
+    low-pressure sodium), which only ever train."""
+    from .datasets.lamps import library
+
+    lib = library(wavelength_nm=np.asarray(wavelength_nm, float)).select()
+    keep = [
+        i
+        for i, r in enumerate(lib.records)
+        if (
+            lib.is_scored(r)
+            if scored
+            else (not lib.is_scored(r) and r.excluded is None)
+        )
+        and (r.level2 is not None or not scored)
+    ]
+    recs = [lib.records[i] for i in keep]
+    return LampSet(
+        tuple(r.id for r in recs),
+        np.asarray(lib.values[keep], float),
+        tuple(r.level1 for r in recs),
+        tuple(r.level2 if r.level2 is not None else r.level1 for r in recs),
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class InversionResult:
+    """Per pixel: `estimate` (n, 3) [lm W⁻¹], [1], [K] (CCT NaN where not
+    meaningful), `interval90` (n, 3, 2), `cct_probability` (P(CCT meaningful)),
+    `unexplained` (n,), `misfit` (reduced χ², n), level-1/-2 probabilities
+    with their labels, and the predicted types (None where unexplained)."""
+
+    estimate: np.ndarray
+    interval90: np.ndarray
+    cct_probability: np.ndarray
+    unexplained: np.ndarray
+    misfit: np.ndarray
+    level1_labels: tuple[str, ...]
+    level1_probabilities: np.ndarray
+    level2_labels: tuple[str, ...]
+    level2_probabilities: np.ndarray
+    level1: tuple[str | None, ...]
+    level2: tuple[str | None, ...]
+    testable: bool
+
+    def row(self, i: int) -> dict:
+        """JSON-ready result of pixel `i`: metrics null with a reason where they
+        cannot be estimated, never outside `PHYSICAL_RANGE`."""
+        est, reasons, iv = {}, {}, {}
+        for m, name in enumerate(METRICS):
+            v = float(self.estimate[i, m])
+            lo, hi = (float(x) for x in self.interval90[i, m])
+            if self.unexplained[i]:
+                est[name], iv[name] = None, None
+                reasons[name] = "unexplained: no lamp of the prior fits this pixel"
+            elif not np.isfinite(v):
+                est[name], iv[name] = None, None
+                reasons[name] = (
+                    "no meaningful CCT: the posterior favours lamps whose "
+                    f"chromaticity is > 0.05 Duv off the Planckian locus "
+                    f"(P(meaningful) = {self.cct_probability[i]:.2f})"
+                )
+            else:
+                est[name], iv[name] = v, [lo, hi]
+        return {
+            "estimate": est,
+            "interval90": iv,
+            "null_reasons": reasons,
+            "unexplained": bool(self.unexplained[i]),
+            "misfit_reduced_chi2": float(self.misfit[i]),
+            "level1_probabilities": {
+                k: float(p)
+                for k, p in zip(
+                    self.level1_labels, self.level1_probabilities[i], strict=True
+                )
+            },
+            "predicted_level1": self.level1[i],
+            "predicted_level2": self.level2[i],
+        }
+
+
+@dataclasses.dataclass(frozen=True)
+class Inversion:
+    """A fitted inversion for one band set (see the module docstring)."""
+
+    prior: LampPrior
+    basis: SurfaceBasis
+    conditions: Conditions
+    weights: np.ndarray
+    design: tuple
+    surface_mode: str
+    sigma_rel: float
+    conformal: np.ndarray
+    threshold: float
+    diagnostics: dict
+
+    @property
+    def n_bands(self) -> int:
+        return int(self.weights.shape[0])
+
+    def _dof(self) -> int:
+        return self.n_bands - (1 if self.conditions.moon is None else 2)
+
+    def candidates(self, n: int, surface=None):
+        """Surface candidates `(n, s, r+1)` and their log prior `(n, s)`.
+
+        `surface`: None (mode 'unknown'), a sequence of n type names (mode
+        'class'), or basis coefficients (n, r) (mode 'measured')."""
+        return surface_candidates(self.basis, self.surface_mode, n, surface)
+
+    def posterior(self, radiance, surface=None):
+        y = np.atleast_2d(np.asarray(radiance, float))
+        cand, lps = self.candidates(y.shape[0], surface)
+        a, q = self.design
+        lk, chi, _ = _score(y, cand, lps, a, q, self.prior.log_prior, self.sigma_rel)
+        post = np.exp(lk - logsumexp(lk, axis=1, keepdims=True))
+        return post, chi / max(self._dof(), 1)
+
+    def predict(self, radiance, surface=None) -> InversionResult:
+        """Invert band radiances (n, b) (any brightness)."""
+        post, misfit = self.posterior(radiance, surface)
+        return _result(self, post, misfit)
+
+
+def surface_candidates(basis: SurfaceBasis, mode: str, n: int, surface=None):
+    if mode not in SURFACE_MODES:
+        raise ValueError(f"surface mode {mode!r}: expected one of {SURFACE_MODES}.")
+    r = basis.basis.shape[0]
+    if mode == "unknown":
+        c = np.broadcast_to(basis.type_coords, (n, *basis.type_coords.shape))
+    elif mode == "class":
+        if surface is None or len(surface) != n:
+            raise ValueError("surface mode 'class' needs one surface type per pixel.")
+        cache = {}
+        for t in set(surface):
+            cache[t] = basis.class_coords(t)
+        c = np.stack([cache[t] for t in surface])
+    else:
+        coords = np.asarray(surface, float) if surface is not None else None
+        if coords is None or coords.shape != (n, r):
+            raise ValueError(
+                "surface mode 'measured' needs basis coefficients (n, r) per pixel "
+                "(see surface_from_sentinel2)."
+            )
+        c = coords[:, None, :]
+    ones = np.ones((*c.shape[:2], 1))
+    cand = np.concatenate([ones, c], axis=-1)
+    return cand, np.full(cand.shape[:2], -np.log(cand.shape[1]))
+
+
+def _result(inv: Inversion, post, misfit) -> InversionResult:
+    mean, rng, p_cct = _posterior_metrics(post, inv.prior)
+    lo_b, hi_b = _model_bounds()
+    half = np.maximum((rng[..., 1] - rng[..., 0]) / 2, INTERVAL_FLOOR)
+    lo = np.clip(rng[..., 0] - inv.conformal * half, lo_b, hi_b)
+    hi = np.clip(rng[..., 1] + inv.conformal * half, lo_b, hi_b)
+    mean = np.clip(mean, lo_b, hi_b)
+    lo, hi = np.minimum(lo, mean), np.maximum(hi, mean)
+    est = mean.copy()
+    est[:, 2] = np.where(p_cct >= 0.5, MIRED / mean[:, 2], np.nan)
+    # mired interval [lo, hi] is CCT [MIRED/hi, MIRED/lo]
+    iv = np.stack([lo, hi], axis=-1)
+    iv[:, 2] = np.stack([MIRED / hi[:, 2], MIRED / lo[:, 2]], axis=-1)
+    unexplained = misfit > inv.threshold
+    l2 = sorted(set(inv.prior.level2))
+    m2 = np.array([[x == c for c in l2] for x in inv.prior.level2], float)
+    p2 = post @ m2
+    parents = [LEVEL2_PARENT.get(c, c) for c in l2]
+    l1 = [c for c in LEVEL1 if c in parents]
+    p1 = p2 @ np.array([[p == c for c in l1] for p in parents], float)
+    pred1, pred2 = [], []
+    for i in range(post.shape[0]):
+        if unexplained[i]:
+            pred1.append(None)
+            pred2.append(None)
+            continue
+        k1 = l1[int(np.argmax(p1[i]))]
+        inside = [j for j, p in enumerate(parents) if p == k1]
+        k2 = l2[inside[int(np.argmax(p2[i, inside]))]]
+        pred1.append(k1)
+        pred2.append(k2 if k2 in LEVEL2 else None)
+    return InversionResult(
+        est,
+        iv,
+        p_cct,
+        unexplained,
+        misfit,
+        tuple(l1),
+        p1,
+        tuple(l2),
+        p2,
+        tuple(pred1),
+        tuple(pred2),
+        bool(np.isfinite(inv.threshold)),
+    )
+
+
+def _lamp_errors(pred_model, truth_model, valid, row_lamp, lamps):
+    """Mean |error| per lamp over its rows in model space, (len(lamps), 3)."""
+    out = np.full((len(lamps), 3), np.nan)
+    for i, l in enumerate(lamps):
+        rows = row_lamp == l
+        e = np.abs(pred_model[rows] - truth_model[l][None]).mean(axis=0)
+        out[i] = np.where(valid[l], e, np.nan)
+    return out
+
+
+def fit_inversion(
+    radiance,
+    row_lamp,
+    lamps: LampSet,
+    train_lamps,
+    inner: Sequence[tuple[np.ndarray, np.ndarray]],
+    weights,
+    conditions: Conditions,
+    *,
+    basis: SurfaceBasis | None = None,
+    surface_mode: str = "unknown",
+    row_surface=None,
+    always: LampSet | None = None,
+    sigma_grid: Sequence[float] = SIGMA_REL_GRID,
+) -> Inversion:
+    """Fit an inversion on `train_lamps` (indices into `lamps`).
+
+    `radiance` (N, b) are simulated band radiances of labelled pixels whose lamp
+    is `row_lamp` (N,) (index into `lamps`); `inner` are (train, validation)
+    lamp splits of `train_lamps` on which `σ_rel`, the conformal factors and the
+    unexplained threshold are chosen (never the lamps scored later).
+    `row_surface`: per-pixel surface knowledge for modes 'class'/'measured'.
+    `always`: lamps that are in every prior and never scored."""
+    radiance = np.asarray(radiance, float)
+    row_lamp = np.asarray(row_lamp, int)
+    weights = np.asarray(weights, float)
+    grid = conditions.wavelength_nm
+    basis = basis if basis is not None else surface_basis(grid)
+    truth, valid = lamp_truth(lamps.spectra, grid)
+    tm = _to_model(np.where(valid, truth, 1.0))
+    l2 = np.asarray(lamps.level2, dtype=object)
+
+    def make(prior_set: LampSet, sigma: float) -> Inversion:
+        pset = prior_set if always is None else prior_set + always
+        prior = lamp_prior(pset.ids, pset.spectra, pset.level1, pset.level2, grid)
+        return Inversion(
+            prior,
+            basis,
+            conditions,
+            weights,
+            _design(prior.spectra, weights, conditions, basis),
+            surface_mode,
+            float(sigma),
+            np.zeros(3),
+            np.inf,
+            {},
+        )
+
+    def rows_of(lamp_idx):
+        return np.flatnonzero(np.isin(row_lamp, lamp_idx))
+
+    def surf(rows):
+        if row_surface is None:
+            return None
+        if isinstance(row_surface, np.ndarray) and row_surface.ndim == 2:
+            return row_surface[rows]
+        return [row_surface[i] for i in rows]
+
+    # inner folds: choose σ_rel, collect calibration data
+    spread = np.array(
+        [
+            np.sqrt(np.cov(tm[train_lamps][valid[train_lamps, m], m]))
+            if valid[train_lamps, m].sum() > 1
+            else 1.0
+            for m in range(3)
+        ]
+    )
+    scores = {s: [] for s in sigma_grid}
+    calib = {s: [] for s in sigma_grid}
+    for tr, va in inner:
+        rows = rows_of(va)
+        for s in sigma_grid:
+            inv = make(lamps.take(tr), s)
+            post, misfit = inv.posterior(radiance[rows], surf(rows))
+            mean, rng, _ = _posterior_metrics(post, inv.prior)
+            err = _lamp_errors(mean, tm, valid, row_lamp[rows], va)
+            w = class_balanced_weights(l2[va])
+            score = 0.0
+            for m in range(3):
+                ok = ~np.isnan(err[:, m])
+                score += (
+                    np.sum(w[ok] * err[ok, m]) / max(w[ok].sum(), 1e-300) / spread[m]
+                )
+            scores[s].append(score)
+            calib[s].append((rows, mean, rng, misfit, va))
+    best = min(sigma_grid, key=lambda s: float(np.mean(scores[s])))
+    # conformal factors and reject threshold from the held-out inner lamps
+    s_all, w_all, mis_all = [], [], []
+    for rows, _mean, rng, misfit, va in calib[best]:
+        lamp_w = dict(zip(va, class_balanced_weights(l2[va]), strict=True))
+        rl = row_lamp[rows]
+        counts = {l: int((rl == l).sum()) for l in va}
+        rw = np.array([lamp_w[l] / counts[l] for l in rl])
+        half = np.maximum((rng[..., 1] - rng[..., 0]) / 2, INTERVAL_FLOOR)
+        y = tm[rl]
+        score = np.maximum(rng[..., 0] - y, y - rng[..., 1]) / half
+        score = np.where(valid[rl], score, np.nan)
+        s_all.append(score)
+        w_all.append(rw)
+        mis_all.append(misfit)
+    s_all, w_all, mis_all = (
+        np.vstack(s_all),
+        np.concatenate(w_all),
+        np.concatenate(mis_all),
+    )
+    conf = np.empty(3)
+    for m in range(3):
+        ok = ~np.isnan(s_all[:, m])
+        conf[m] = max(
+            float(_weighted_quantile(s_all[ok, m], w_all[None, ok], (COVERAGE,))[0, 0]),
+            0.0,
+        )
+    dof = weights.shape[0] - (1 if conditions.moon is None else 2)
+    thr = (
+        float(_weighted_quantile(mis_all, w_all[None], (UNEXPLAINED_QUANTILE,))[0, 0])
+        if dof >= 1
+        else np.inf
+    )
+    final = make(lamps.take(train_lamps), best)
+    return dataclasses.replace(
+        final,
+        conformal=conf,
+        threshold=thr,
+        diagnostics={
+            "sigma_rel": best,
+            "inner_scores": {str(s): float(np.mean(v)) for s, v in scores.items()},
+            "conformal_factor": dict(zip(METRICS, conf.tolist(), strict=True)),
+            "unexplained_threshold_reduced_chi2": thr,
+            "n_prior_lamps": len(final.prior.ids),
+            "surface_mode": surface_mode,
+        },
+    )
