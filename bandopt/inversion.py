@@ -101,6 +101,9 @@ SIGMA_FLOOR = 1e-3
 S2_SIGMA = (0.05, 0.005)
 """Sentinel-2 L2A surface reflectance accuracy `σ = a ρ + b` (`Doxani2018`)."""
 
+S2_MIN_INSIDE = 0.95
+"""Least fraction of a Sentinel-2 band's response inside the grid to use it."""
+
 S2_FILE = Path(__file__).parent / "sensor" / "data" / "sentinel2a_msi_srf.csv"
 
 COVERAGE = 0.9
@@ -127,8 +130,8 @@ N_LEGENDRE = 4
 REFINE_TOP = 3
 """Candidates per pixel refined by Levenberg-Marquardt."""
 
-CHUNK = 512
-"""Pixels scored per compiled call (bounds memory to ~100 MB)."""
+CHUNK = 64
+"""Pixels scored per compiled call (bounds memory to ~200 MB)."""
 
 
 # ------------------------------------------------------------------------------
@@ -238,15 +241,17 @@ def surface_basis(
 
 
 def sentinel2_response(wavelength_nm) -> tuple[tuple[str, ...], np.ndarray]:
-    """Sentinel-2A MSI band responses inside the grid (bands entirely on it),
+    """Sentinel-2A MSI band responses on the grid (bands with at least
+    `S2_MIN_INSIDE` of their response area on it, cut at its ends),
     `(names, (b, w))`, from the vendored Py6S tables (`ESA2017`)."""
     data = np.genfromtxt(S2_FILE, delimiter=",", names=True)
     grid = np.asarray(wavelength_nm, float)
     names, rows = [], []
+    wl = data["wavelength_nm"]
     for name in data.dtype.names[1:]:
         r = np.asarray(data[name], float)
-        on = data["wavelength_nm"][r > 0]
-        if on.min() < grid[0] or on.max() > grid[-1]:
+        inside = (wl >= grid[0]) & (wl <= grid[-1])
+        if np.trapezoid(r * inside, wl) < S2_MIN_INSIDE * np.trapezoid(r, wl):
             continue
         names.append(name)
         rows.append(np.interp(grid, data["wavelength_nm"], r, left=0.0, right=0.0))
@@ -355,43 +360,64 @@ def _chi2(yn, w, p, q):
 
 
 @jax.jit
-def _score_chunk(y, cand, log_ps, a, q, log_pk, sigma_rel):
-    """Per pixel: log evidence per lamp (k,), best χ² (), best (surface, atm)
-    index per lamp. `y (n, b)`, `cand (n, s, r+1)`, `log_ps (n, s)`."""
+def _score_chunk(y, cand, log_ps, a, q, log_pk, sigmas):
+    """Per pixel and relative error `σ_rel` in `sigmas (S,)`: log evidence per
+    lamp (S, k) and best χ² (S,). `y (n, b)`, `cand (n, s, r+1)`, `log_ps (n, s)`."""
 
     def one(yp, c, lps):
         m = jnp.mean(jnp.abs(yp))
         yn = yp / jnp.where(m > 0, m, 1.0)
-        sd = sigma_rel * jnp.abs(yn) + SIGMA_FLOOR
-        w = 1.0 / sd**2
         p = jnp.einsum("kabr,sr->ksab", a, c)
         qq = None if q is None else jnp.einsum("abr,sr->sab", q, c)[None]
-        chi = _chi2(yn, w, p, qq)  # (k, s, a)
-        lw = -0.5 * chi + lps[None, :, None]
-        lk = logsumexp(lw.reshape(lw.shape[0], -1), axis=1) + log_pk
-        flat = jnp.argmin(chi.reshape(chi.shape[0], -1), axis=1)
-        return lk, jnp.min(chi), flat
+
+        def at(sigma):
+            sd = sigma * jnp.abs(yn) + SIGMA_FLOOR
+            chi = _chi2(yn, 1.0 / sd**2, p, qq)  # (k, s, a)
+            lw = -0.5 * chi + lps[None, :, None]
+            lk = logsumexp(lw.reshape(lw.shape[0], -1), axis=1) + log_pk
+            return lk, jnp.min(chi)
+
+        return jax.lax.map(at, sigmas)
 
     return jax.vmap(one)(y, cand, log_ps)
 
 
-def _score(y, cand, log_ps, a, q, log_pk, sigma_rel):
+K_BUCKET = 32
+"""Prior sizes are padded to a multiple of this (one compilation for priors
+of similar size; padded lamps have zero spectra and zero prior)."""
+
+
+def _score(y, cand, log_ps, a, q, log_pk, sigmas):
+    """Chunked, padded `_score_chunk`: (log evidence (n, S, k), χ² (n, S))."""
     y = np.asarray(y, float)
-    outs = []
-    for i in range(0, y.shape[0], CHUNK):
+    n, k = y.shape[0], a.shape[0]
+    kp = -(-k // K_BUCKET) * K_BUCKET
+    a = np.concatenate([a, np.zeros((kp - k, *a.shape[1:]))])
+    log_pk = np.concatenate([log_pk, np.full(kp - k, -1e30)])
+    npad = -(-max(n, 1) // CHUNK) * CHUNK
+    pad = npad - n
+
+    def padded(x, fill):
+        x = np.asarray(x, float)
+        return np.concatenate([x, np.full((pad, *x.shape[1:]), fill)])
+
+    y, cand, log_ps = padded(y, 1.0), padded(cand, 0.0), padded(log_ps, 0.0)
+    cand[n:, :, 0] = 1.0
+    args = (
+        jnp.asarray(a),
+        None if q is None else jnp.asarray(q),
+        jnp.asarray(log_pk),
+        jnp.asarray(np.asarray(sigmas, float)),
+    )
+    lks, chis = [], []
+    for i in range(0, npad, CHUNK):
         sl = slice(i, i + CHUNK)
-        outs.append(
-            _score_chunk(
-                jnp.asarray(y[sl]),
-                jnp.asarray(cand[sl]),
-                jnp.asarray(log_ps[sl]),
-                jnp.asarray(a),
-                None if q is None else jnp.asarray(q),
-                jnp.asarray(log_pk),
-                float(sigma_rel),
-            )
+        lk, chi = _score_chunk(
+            jnp.asarray(y[sl]), jnp.asarray(cand[sl]), jnp.asarray(log_ps[sl]), *args
         )
-    return tuple(np.concatenate([np.asarray(o[j]) for o in outs]) for j in range(3))
+        lks.append(np.asarray(lk))
+        chis.append(np.asarray(chi))
+    return np.concatenate(lks)[:n, :, :k], np.concatenate(chis)[:n]
 
 
 def _weighted_quantile(values, weights, qs):
@@ -590,18 +616,63 @@ class Inversion:
         'class'), or basis coefficients (n, r) (mode 'measured')."""
         return surface_candidates(self.basis, self.surface_mode, n, surface)
 
-    def posterior(self, radiance, surface=None):
+    def posterior(self, radiance, surface=None, sigmas=None):
+        """Posterior over prior lamps (n, k) and reduced χ² (n,); with `sigmas`
+        (S,) one of each per `σ_rel`: (n, S, k), (n, S)."""
         y = np.atleast_2d(np.asarray(radiance, float))
         cand, lps = self.candidates(y.shape[0], surface)
         a, q = self.design
-        lk, chi, _ = _score(y, cand, lps, a, q, self.prior.log_prior, self.sigma_rel)
-        post = np.exp(lk - logsumexp(lk, axis=1, keepdims=True))
-        return post, chi / max(self._dof(), 1)
+        sig = [self.sigma_rel] if sigmas is None else list(sigmas)
+        lk, chi = _score(y, cand, lps, a, q, self.prior.log_prior, sig)
+        post = np.exp(lk - logsumexp(lk, axis=-1, keepdims=True))
+        red = chi / max(self._dof(), 1)
+        return (post[:, 0], red[:, 0]) if sigmas is None else (post, red)
+
+    def reconstruct(self, radiance, surface=None) -> np.ndarray:
+        """Posterior-mean lamp spectrum per lumen, (n, w) [W nm⁻¹ lm⁻¹]."""
+        post, _ = self.posterior(radiance, surface)
+        return post @ self.prior.spectra
 
     def predict(self, radiance, surface=None) -> InversionResult:
         """Invert band radiances (n, b) (any brightness)."""
         post, misfit = self.posterior(radiance, surface)
         return _result(self, post, misfit)
+
+
+def build_inversion(
+    lamps: LampSet,
+    weights,
+    conditions: Conditions,
+    basis: SurfaceBasis,
+    surface_mode: str = "unknown",
+    sigma_rel: float = 0.03,
+) -> Inversion:
+    """An uncalibrated inversion with `lamps` as its prior (no conformal
+    widening, no reject threshold): the building block of `fit_inversion`."""
+    if surface_mode not in SURFACE_MODES:
+        raise ValueError(
+            f"surface mode {surface_mode!r}: expected one of {SURFACE_MODES}."
+        )
+    weights = np.asarray(weights, float)
+    grid = conditions.wavelength_nm
+    if weights.shape[-1] != grid.size or basis.mean.size != grid.size:
+        raise ValueError(
+            f"band weights ({weights.shape[-1]}), surface basis ({basis.mean.size}) "
+            f"and conditions ({grid.size}) must share one wavelength grid."
+        )
+    prior = lamp_prior(lamps.ids, lamps.spectra, lamps.level1, lamps.level2, grid)
+    return Inversion(
+        prior,
+        basis,
+        conditions,
+        weights,
+        _design(prior.spectra, weights, conditions, basis),
+        surface_mode,
+        float(sigma_rel),
+        np.zeros(3),
+        np.inf,
+        {},
+    )
 
 
 def surface_candidates(basis: SurfaceBasis, mode: str, n: int, surface=None):
@@ -721,19 +792,7 @@ def fit_inversion(
 
     def make(prior_set: LampSet, sigma: float) -> Inversion:
         pset = prior_set if always is None else prior_set + always
-        prior = lamp_prior(pset.ids, pset.spectra, pset.level1, pset.level2, grid)
-        return Inversion(
-            prior,
-            basis,
-            conditions,
-            weights,
-            _design(prior.spectra, weights, conditions, basis),
-            surface_mode,
-            float(sigma),
-            np.zeros(3),
-            np.inf,
-            {},
-        )
+        return build_inversion(pset, weights, conditions, basis, surface_mode, sigma)
 
     def rows_of(lamp_idx):
         return np.flatnonzero(np.isin(row_lamp, lamp_idx))
@@ -758,9 +817,10 @@ def fit_inversion(
     calib = {s: [] for s in sigma_grid}
     for tr, va in inner:
         rows = rows_of(va)
-        for s in sigma_grid:
-            inv = make(lamps.take(tr), s)
-            post, misfit = inv.posterior(radiance[rows], surf(rows))
+        inv = make(lamps.take(tr), sigma_grid[0])
+        posts, misfits = inv.posterior(radiance[rows], surf(rows), sigmas=sigma_grid)
+        for j, s in enumerate(sigma_grid):
+            post, misfit = posts[:, j], misfits[:, j]
             mean, rng, _ = _posterior_metrics(post, inv.prior)
             err = _lamp_errors(mean, tm, valid, row_lamp[rows], va)
             w = class_balanced_weights(l2[va])
@@ -819,3 +879,356 @@ def fit_inversion(
             "surface_mode": surface_mode,
         },
     )
+
+
+# ------------------------------------------------------------------------------
+# Nested cross-validation on a search context (lamp-grouped, shared folds)
+
+
+ESTIMATORS = ("inversion", "ridge", "kernel")
+"""Estimators `cross_validate` and `bandopt evaluate` know."""
+
+
+_SETUP_CACHE: dict = {}
+
+
+def context_setup(ctx):
+    """Lamps, always-in-prior lamps, conditions and per-row surface types of a
+    `search.Context` (its scenes are surface x atmosphere x Moon x class);
+    cached per context object."""
+    key = id(ctx)
+    hit = _SETUP_CACHE.get(key)
+    if hit is not None and hit[0] is ctx:
+        return hit[1]
+    out = _context_setup(ctx)
+    _SETUP_CACHE[key] = (ctx, out)
+    return out
+
+
+def _context_setup(ctx):
+    from .scene import build_scenarios
+
+    grid = ctx.wavelength_nm
+    lamps = library_lamps(grid, scored=True)
+    if lamps.ids != tuple(ctx.lamp_ids):
+        raise RuntimeError("context lamps and library scored lamps differ")
+    always = library_lamps(grid, scored=False)
+    sc = ctx.config["scenarios"]
+    atms = [a if isinstance(a, str) else tuple(a) for a in sc["atmospheres"]]
+    scen = build_scenarios(
+        lamps=[lamps.ids[0]],
+        surfaces=sc["surfaces"],
+        atmospheres=atms,
+        moons=tuple(sc["moons"]),
+        classes=tuple(sc["classes"]),
+        wavelength_nm=grid,
+    )
+    per_surface = ctx.toa.shape[1] // len(sc["surfaces"])
+    q = np.arange(ctx.toa.shape[1]) // per_surface
+    row_types = [sc["surfaces"][i] for i in np.tile(q, ctx.table.n_lamps)]
+    return lamps, always, Conditions.from_scenarios(scen), row_types
+
+
+def measured_surfaces(row_types, basis: SurfaceBasis, *, seed: int = 0):
+    """Per-row surface coefficients from a simulated daytime Sentinel-2
+    measurement of each row's true (type-mean) surface, (N, r)."""
+    types = sorted(set(row_types))
+    _, refl = surf_mod.mean_reflectance(types, basis.wavelength_nm)
+    idx = np.array([types.index(t) for t in row_types])
+    obs = observe_sentinel2(refl[idx], basis.wavelength_nm, seed=seed)
+    return surface_from_sentinel2(obs, basis)
+
+
+def cross_validate(
+    ctx,
+    bands,
+    *,
+    estimators: Sequence[str] = ESTIMATORS,
+    surface_modes: Sequence[str] = ("unknown",),
+    folds: Sequence[int] | None = None,
+    seed: int = 0,
+) -> list[dict]:
+    """Score estimators on the context's outer folds (lamp-grouped, the same
+    folds for every estimator). One record per (estimator, surface mode, outer
+    fold, test lamp) with the lamp's mean |error| per metric (CCT in K and in
+    mired), interval coverage, level-1 correctness and unexplained rate
+    (inversion only) and the number of rows whose estimate left the physical
+    range (must be 0)."""
+    import jax.numpy as jnp
+
+    from .estimate import fit_estimator, fit_kernel_estimator
+    from .scene import band_weights
+
+    lamps, always, cond, row_types = context_setup(ctx)
+    grid = ctx.wavelength_nm
+    rad = ctx.radiance(bands)
+    resp = jnp.asarray(bands.response(jnp.asarray(grid)))
+    w = np.asarray(band_weights(resp, jnp.asarray(grid)))
+    row_lamp = np.asarray(ctx.table.lamp_of)
+    truth, valid = ctx.table.truth, ctx.table.valid
+    basis = surface_basis(grid)
+    surf_in = {
+        "unknown": None,
+        "class": row_types,
+        "measured": measured_surfaces(row_types, basis, seed=seed),
+    }
+    out = []
+    folds = range(len(ctx.splits)) if folds is None else folds
+    for k in folds:
+        s = ctx.splits[k]
+        inner = list(s.inner)
+        rows = np.flatnonzero(np.isin(row_lamp, s.test))
+        preds = {}
+        for name in estimators:
+            if name == "inversion":
+                for mode in surface_modes:
+                    si = surf_in[mode]
+                    inv = fit_inversion(
+                        rad,
+                        row_lamp,
+                        lamps,
+                        s.train,
+                        inner,
+                        w,
+                        cond,
+                        basis=basis,
+                        surface_mode=mode,
+                        row_surface=si,
+                        always=always,
+                    )
+                    sub = (
+                        None
+                        if si is None
+                        else (
+                            si[rows]
+                            if isinstance(si, np.ndarray)
+                            else [si[i] for i in rows]
+                        )
+                    )
+                    preds[("inversion", mode)] = (inv.predict(rad[rows], sub), inv)
+            elif name == "ridge":
+                est = fit_estimator(rad, ctx.table, s.train, inner)
+                preds[("ridge", "unknown")] = (np.asarray(est.predict(rad[rows])), None)
+            elif name == "kernel":
+                est = fit_kernel_estimator(rad, ctx.table, s.train, inner, seed=seed)
+                preds[("kernel", "unknown")] = (
+                    np.asarray(est.predict(rad[rows])),
+                    None,
+                )
+            else:
+                raise ValueError(f"estimator {name!r}: expected one of {ESTIMATORS}.")
+        for (name, mode), (p, inv) in preds.items():
+            res = p if isinstance(p, InversionResult) else None
+            est = res.estimate if res is not None else p
+            for lamp in s.test:
+                sel = row_lamp[rows] == lamp
+                e = est[sel]
+                t = truth[lamp]
+                rec = {
+                    "estimator": name,
+                    "surface": mode,
+                    "fold": int(k),
+                    "lamp": lamps.ids[lamp],
+                    "level1": lamps.level1[lamp],
+                    "level2": lamps.level2[lamp],
+                    "rows": int(sel.sum()),
+                    "out_of_range": int(_out_of_range(e)),
+                }
+                for m, name_m in enumerate(METRICS):
+                    if not valid[lamp, m]:
+                        rec[name_m] = None
+                        continue
+                    v = e[:, m]
+                    if name_m == "CCT":
+                        # a null CCT (not meaningful) counts as the range's far end
+                        vv = np.where(np.isfinite(v), v, CCT_RANGE_K[1])
+                        rec["CCT"] = float(np.mean(np.abs(vv - t[m])))
+                        rec["CCT_mired"] = float(
+                            np.mean(np.abs(MIRED / vv - MIRED / t[m]))
+                        )
+                        rec["CCT_null_rate"] = float(np.mean(~np.isfinite(v)))
+                    else:
+                        rec[name_m] = float(np.mean(np.abs(v - t[m])))
+                if res is not None:
+                    iv = res.interval90[sel]
+                    for m, name_m in enumerate(METRICS):
+                        if valid[lamp, m]:
+                            inside = (iv[:, m, 0] <= t[m]) & (t[m] <= iv[:, m, 1])
+                            rec[f"{name_m}_covered"] = float(np.mean(inside))
+                    l1 = np.array(res.level1, dtype=object)[sel]
+                    rec["level1_correct"] = float(np.mean(l1 == lamps.level1[lamp]))
+                    rec["unexplained"] = float(np.mean(res.unexplained[sel]))
+                    rec["sigma_rel"] = inv.sigma_rel
+                out.append(rec)
+    return out
+
+
+def _out_of_range(est) -> int:
+    """Rows with an estimate outside `PHYSICAL_RANGE` (NaN CCT is a null)."""
+    bad = np.zeros(est.shape[0], bool)
+    for m, name in enumerate(METRICS):
+        lo, hi = PHYSICAL_RANGE[name]
+        v = est[:, m]
+        fin = np.isfinite(v)
+        bad |= fin & ((v < lo - 1e-9) | (v > hi + 1e-9))
+        if name != "CCT":
+            bad |= ~fin
+    return int(bad.sum())
+
+
+# ------------------------------------------------------------------------------
+# Summaries of cross-validation records
+
+
+def _cb_mean(values, classes) -> float:
+    """Class-balanced mean (each class the same weight) of per-lamp values."""
+    v = np.asarray(values, float)
+    ok = np.isfinite(v)
+    if not ok.any():
+        return float("nan")
+    return float(np.sum(class_balanced_weights(np.asarray(classes)[ok]) * v[ok]))
+
+
+SUMMARY_COLUMNS = (
+    "LER",
+    "G",
+    "CCT",
+    "CCT_mired",
+    "LER_covered",
+    "G_covered",
+    "CCT_covered",
+    "level1_correct",
+    "unexplained",
+)
+
+
+def summarise(records: Sequence[dict], keys=("band_set", "estimator", "surface")):
+    """Per group of `keys`: per partition the class-balanced mean over test
+    lamps of each `SUMMARY_COLUMNS` value (MAE for the metrics), then mean and
+    SD over partitions; `out_of_range` summed. Records need a `partition`."""
+    groups: dict = {}
+    for r in records:
+        groups.setdefault(tuple(r[k] for k in keys), []).append(r)
+    rows = []
+    for g, recs in sorted(groups.items()):
+        parts = sorted({r["partition"] for r in recs})
+        row = dict(zip(keys, g, strict=True))
+        row["partitions"] = len(parts)
+        row["lamps_per_partition"] = len(recs) // max(len(parts), 1)
+        row["out_of_range"] = int(sum(r["out_of_range"] for r in recs))
+        for col in SUMMARY_COLUMNS:
+            per = []
+            for p in parts:
+                rp = [r for r in recs if r["partition"] == p and r.get(col) is not None]
+                if rp:
+                    per.append(
+                        _cb_mean([r[col] for r in rp], [r["level2"] for r in rp])
+                    )
+            if per:
+                row[col] = float(np.mean(per))
+                row[f"{col}_sd"] = float(np.std(per, ddof=1)) if len(per) > 1 else None
+                row[f"{col}_per_partition"] = per
+        rows.append(row)
+    return rows
+
+
+def paired_differences(summary_rows, reference: str, against: str):
+    """Per (estimator, surface): MAE of `against` minus `reference` band set,
+    paired by partition; mean, SD and relative change of the mean."""
+    by = {(r["band_set"], r["estimator"], r["surface"]): r for r in summary_rows}
+    out = []
+    for (bs, est, surf), r in sorted(by.items()):
+        if bs != against or (reference, est, surf) not in by:
+            continue
+        ref = by[(reference, est, surf)]
+        row = {"estimator": est, "surface": surf, "band_set": against, "vs": reference}
+        for m in ("LER", "G", "CCT", "CCT_mired"):
+            a, b = r.get(f"{m}_per_partition"), ref.get(f"{m}_per_partition")
+            if not a or not b or len(a) != len(b):
+                continue
+            d = np.asarray(a) - np.asarray(b)
+            row[f"{m}_diff"] = float(d.mean())
+            row[f"{m}_diff_sd"] = float(d.std(ddof=1)) if d.size > 1 else None
+            row[f"{m}_relative"] = float(d.mean() / np.mean(b)) if np.mean(b) else None
+        out.append(row)
+    return out
+
+
+def leave_one_class_out(ctx, bands, *, surface_mode: str = "unknown", seed: int = 0):
+    """Unseen lamp types: for every scored level-2 class, fit on all other
+    classes (inner folds: 2 class-stratified lamp folds of those) and score its
+    lamps. One record per test lamp as `cross_validate` (fold = the class)."""
+    import jax.numpy as jnp
+
+    from .folds import stratified_lamp_folds
+    from .scene import band_weights
+
+    lamps, always, cond, row_types = context_setup(ctx)
+    grid = ctx.wavelength_nm
+    rad = ctx.radiance(bands)
+    resp = jnp.asarray(bands.response(jnp.asarray(grid)))
+    w = np.asarray(band_weights(resp, jnp.asarray(grid)))
+    row_lamp = np.asarray(ctx.table.lamp_of)
+    classes = np.asarray(lamps.level2, dtype=object)
+    basis = surface_basis(grid)
+    si = {
+        "unknown": None,
+        "class": row_types,
+        "measured": measured_surfaces(row_types, basis, seed=seed),
+    }[surface_mode]
+    out = []
+    for c in sorted(set(classes)):
+        test = np.flatnonzero(classes == c)
+        train = np.flatnonzero(classes != c)
+        folds = stratified_lamp_folds(classes[train], 2, seed)
+        inner = [(np.setdiff1d(train, train[v]), np.sort(train[v])) for v in folds]
+        inv = fit_inversion(
+            rad,
+            row_lamp,
+            lamps,
+            train,
+            inner,
+            w,
+            cond,
+            basis=basis,
+            surface_mode=surface_mode,
+            row_surface=si,
+            always=always,
+        )
+        rows = np.flatnonzero(np.isin(row_lamp, test))
+        sub = (
+            None
+            if si is None
+            else (si[rows] if isinstance(si, np.ndarray) else [si[i] for i in rows])
+        )
+        res = inv.predict(rad[rows], sub)
+        for lamp in test:
+            sel = row_lamp[rows] == lamp
+            t, v = ctx.table.truth[lamp], ctx.table.valid[lamp]
+            rec = {
+                "held_out_class": c,
+                "lamp": lamps.ids[lamp],
+                "level1": lamps.level1[lamp],
+                "level2": c,
+                "rows": int(sel.sum()),
+                "out_of_range": _out_of_range(res.estimate[sel]),
+                "level1_in_prior": lamps.level1[lamp] in set(inv.prior.level1),
+                "level1_correct": float(
+                    np.mean(
+                        np.array(res.level1, dtype=object)[sel] == lamps.level1[lamp]
+                    )
+                ),
+                "unexplained": float(np.mean(res.unexplained[sel])),
+            }
+            for m, name in enumerate(METRICS):
+                if not v[m]:
+                    continue
+                e = res.estimate[sel, m]
+                ee = np.where(np.isfinite(e), e, CCT_RANGE_K[1]) if name == "CCT" else e
+                rec[name] = float(np.mean(np.abs(ee - t[m])))
+                iv = res.interval90[sel, m]
+                rec[f"{name}_covered"] = float(
+                    np.mean((iv[:, 0] <= t[m]) & (t[m] <= iv[:, 1]))
+                )
+            out.append(rec)
+    return out

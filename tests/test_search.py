@@ -296,6 +296,9 @@ def test_dask_local_cluster_same_code_path(tmp_path):
     assert all(r["pid"] == os.getpid() for r in res)  # threads-only cluster
 
 
+PHYSICAL = {"LER": (0, 683), "G": (-10, 10), "CCT": (1000, 25000)}
+
+
 def test_evaluate_json_schema(tmp_path, capsys):
     from bandopt.cli import main
     from bandopt.datasets.lamps import library
@@ -324,14 +327,22 @@ def test_evaluate_json_schema(tmp_path, capsys):
             "file",
             "true",
             "estimate",
+            "interval90",
+            "null_reasons",
+            "unexplained",
+            "level1_probabilities",
             "predicted_level1",
             "predicted_level2",
         }
         assert set(r["true"]) == set(r["estimate"]) == {"LER", "G", "CCT"}
         # The HPS lamp is classified with the foundation's identifiers.
         assert r["predicted_level1"] == "hid" and r["predicted_level2"] == "hps"
+        assert r["unexplained"] is False
+        assert abs(sum(r["level1_probabilities"].values()) - 1) < 1e-9
         np.testing.assert_allclose(r["true"]["LER"], truth[0, 0], rtol=2e-3)
-        assert all(np.isfinite(list(r["estimate"].values())))
+        for m, (lo, hi) in PHYSICAL.items():
+            e, iv = r["estimate"][m], r["interval90"][m]
+            assert lo <= iv[0] <= e <= iv[1] <= hi, (m, e, iv)
     assert out["notes"][0]["nir_extension"] == "hps"
     assert main(["evaluate", "--bands", "no-such-sensor", "--lamps", str(f1)]) == 2
 

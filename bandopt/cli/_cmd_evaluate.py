@@ -45,8 +45,60 @@ def register(subparsers):
         metavar="FILE",
         help="lamp spectra (.csv/.txt/.dat two columns, .prn, .xml/.spdx)",
     )
+    p.add_argument(
+        "--estimator",
+        choices=("inversion", "ridge", "kernel"),
+        default="inversion",
+        help="inversion (default): physics-based inversion with a prior over the "
+        "measured library lamps, 90 %% intervals and an 'unexplained' flag; ridge / "
+        "kernel: regression baselines on centred log band ratios, bounded to the "
+        "training range, with split-conformal 90 %% intervals",
+    )
+    p.add_argument(
+        "--surface",
+        metavar="NAME|FILE",
+        default=None,
+        help="surface under the lamp, known to the estimator: a surface type "
+        "(e.g. grass; `bandopt surfaces`) or a two-column reflectance file "
+        "(wavelength [nm], reflectance [0-1], covering 380-900 nm). Default: the "
+        "scene's asphalt, unknown to the estimator",
+    )
+    p.add_argument(
+        "--plot", metavar="PNG", help="figure: truth vs estimate with 90 %% intervals"
+    )
     p.add_argument("--json", action="store_true", help="print JSON (input order)")
     p.set_defaults(func=run)
+
+
+def read_reflectance(path, grid):
+    """Two-column reflectance file -> values on `grid` (380-900 nm) [1]; errors
+    name the file and the problem."""
+    import numpy as np
+
+    try:
+        data = np.loadtxt(
+            path,
+            delimiter=None if not str(path).endswith(".csv") else ",",
+            comments="#",
+            ndmin=2,
+        )
+    except (OSError, ValueError) as exc:
+        raise ValueError(
+            f"{path}: cannot read a two-column reflectance table ({exc})"
+        ) from None
+    if data.shape[1] < 2 or data.shape[0] < 10:
+        raise ValueError(f"{path}: need >= 10 rows of 'wavelength_nm reflectance'.")
+    w, r = data[:, 0], data[:, 1]
+    if not np.all(np.diff(w) > 0):
+        raise ValueError(f"{path}: wavelengths must increase strictly.")
+    if w[0] > grid[0] or w[-1] < grid[-1]:
+        raise ValueError(
+            f"{path}: reflectance covers {w[0]:g}-{w[-1]:g} nm; need "
+            f"{grid[0]:g}-{grid[-1]:g} nm."
+        )
+    if not np.all(np.isfinite(r)) or r.min() < 0 or r.max() > 1:
+        raise ValueError(f"{path}: reflectance must be finite and within 0-1.")
+    return np.interp(grid, w, r)
 
 
 def _nearest_technology(w, s):
@@ -104,6 +156,143 @@ def load_user_lamp(path):
     return np.interp(grid, w, s), note
 
 
+def _surface(args, grid):
+    """(scene reflectance on grid, label, surface mode, knowledge for the inversion)."""
+    from pathlib import Path
+
+    from ..datasets import surfaces
+
+    if args.surface is None:
+        _, refl = surfaces.mean_reflectance([SCENE["surface"]], grid)
+        return refl[0], SCENE["surface"], "unknown", None
+    if Path(args.surface).is_file():
+        return read_reflectance(args.surface, grid), str(args.surface), "measured", None
+    try:
+        name = surfaces.resolve_surface(args.surface)
+    except (KeyError, ValueError) as exc:
+        raise ValueError(
+            f"--surface {args.surface!r}: neither a file nor a surface type ({exc})"
+        ) from None
+    _, refl = surfaces.mean_reflectance([name], grid)
+    return refl[0], name, "class", name
+
+
+def _fit(args, ctx, bands, mode):
+    """The chosen estimator trained on every scored library lamp (inner folds:
+    the context's outer splits). Returns (predict(rad, surface) -> (estimate,
+    interval, extra rows or None), description)."""
+    import jax.numpy as jnp
+    import numpy as np
+
+    from .. import inversion as inv_mod
+    from ..estimate import fit_estimator, fit_kernel_estimator
+    from ..scene import band_weights
+
+    all_lamps = np.arange(ctx.table.n_lamps)
+    splits = [(s.train, s.test) for s in ctx.splits]
+    rad = ctx.radiance(bands)
+    if args.estimator == "inversion":
+        lamps, always, cond, row_types = inv_mod.context_setup(ctx)
+        grid = ctx.wavelength_nm
+        basis = inv_mod.surface_basis(grid)
+        row_surface = {
+            "unknown": None,
+            "class": row_types,
+            "measured": inv_mod.measured_surfaces(row_types, basis),
+        }[mode]
+        resp = jnp.asarray(bands.response(jnp.asarray(grid)))
+        w = np.asarray(band_weights(resp, jnp.asarray(grid)))
+        inv = inv_mod.fit_inversion(
+            rad,
+            ctx.table.lamp_of,
+            lamps,
+            all_lamps,
+            splits,
+            w,
+            cond,
+            basis=basis,
+            surface_mode=mode,
+            row_surface=row_surface,
+            always=always,
+        )
+        desc = (
+            "physics-based inversion (bandopt.inversion), prior over "
+            f"{len(inv.prior.ids)} measured library lamps, surface {mode}; "
+            f"sigma_rel {inv.sigma_rel:g}, 90 % intervals split-conformal on "
+            "lamp-grouped folds"
+        )
+        return inv, basis, desc
+    fit = fit_estimator if args.estimator == "ridge" else fit_kernel_estimator
+    est = fit(rad, ctx.table, all_lamps, splits)
+    q = _conformal_halfwidth(fit, rad, ctx)
+    desc = (
+        f"{args.estimator} regression on centred log band ratios trained on "
+        f"{ctx.table.n_lamps} scored library lamps, bounded to their range; 90 % "
+        "intervals: estimate +- the class-balanced 90 % quantile of held-out "
+        "lamps' |error| (split-conformal)"
+    )
+    return (est, q), None, desc
+
+
+def _conformal_halfwidth(fit, rad, ctx):
+    """Class-balanced 90 % quantile of |error| (model space) on held-out lamps."""
+    import numpy as np
+
+    from ..estimate import to_model_space
+    from ..folds import class_balanced_weights
+
+    errs, wts = [], []
+    y, valid = ctx.table.scenario_truth()
+    for s in ctx.splits:
+        est = fit(rad, ctx.table, s.train, s.inner)
+        rows = np.flatnonzero(np.isin(ctx.table.lamp_of, s.test))
+        p = np.asarray(to_model_space(est.predict(rad[rows])))
+        errs.append(np.where(valid[rows], np.abs(p - y[rows]), np.nan))
+        lw = dict(
+            zip(s.test, class_balanced_weights(ctx.table.classes[s.test]), strict=True)
+        )
+        per = np.bincount(ctx.table.lamp_of)[ctx.table.lamp_of[rows]]
+        wts.append(np.array([lw[l] for l in ctx.table.lamp_of[rows]]) / per)
+    e, w = np.vstack(errs), np.concatenate(wts)
+    q = np.empty(3)
+    for m in range(3):
+        ok = ~np.isnan(e[:, m])
+        order = np.argsort(e[ok, m])
+        c = np.cumsum(w[ok][order])
+        q[m] = e[ok, m][order][min(int(np.searchsorted(c, 0.9 * c[-1])), ok.sum() - 1)]
+    return q
+
+
+def _baseline_rows(est, q, rad):
+    """Bounded estimates and intervals of a regression baseline."""
+    import numpy as np
+
+    from ..estimate import METRICS, MIRED, MODEL_BOUNDS, to_model_space
+
+    pred = np.asarray(est.predict(rad))
+    model = np.asarray(to_model_space(pred))
+    lo = np.clip(model - q, MODEL_BOUNDS[0], MODEL_BOUNDS[1])
+    hi = np.clip(model + q, MODEL_BOUNDS[0], MODEL_BOUNDS[1])
+    rows = []
+    for i in range(pred.shape[0]):
+        iv = {}
+        for m, name in enumerate(METRICS):
+            if name == "CCT":
+                iv[name] = [float(MIRED / hi[i, m]), float(MIRED / lo[i, m])]
+            else:
+                iv[name] = [float(lo[i, m]), float(hi[i, m])]
+        rows.append(
+            {
+                "estimate": {n: float(pred[i, m]) for m, n in enumerate(METRICS)},
+                "interval90": iv,
+                "null_reasons": {},
+                "unexplained": None,
+                "level1_probabilities": None,
+            }
+        )
+    return rows
+
+
 def run(args) -> int:
     import json
     import math
@@ -112,9 +301,9 @@ def run(args) -> int:
     import jax.numpy as jnp
     import numpy as np
 
-    from ..datasets import surfaces
-    from ..estimate import METRICS, fit_estimator, lamp_truth
-    from ..scene import class_illuminance_lx
+    from ..estimate import METRICS, lamp_truth
+    from ..photometry import ler as ler_fn
+    from ..scene import band_weights, class_illuminance_lx
     from ..search import get_context
     from ..spectra import GRID_1NM
     from ._cmd_bands import _load
@@ -122,85 +311,153 @@ def run(args) -> int:
     bands, entry = _load(args.bands)
     name = entry.key if entry is not None else bands.name
     lamps = [load_user_lamp(p) for p in args.lamps]  # errors before training
-    ctx = get_context("search", None, 0, "none")
-    all_lamps = np.arange(ctx.table.n_lamps)
-    est = fit_estimator(
-        ctx.radiance(bands),
-        ctx.table,
-        all_lamps,
-        [(s.train, s.test) for s in ctx.splits],
-    )
     grid = np.asarray(GRID_1NM, float)
-    _, refl = surfaces.mean_reflectance([SCENE["surface"]], grid)
+    refl, surface_label, mode, knowledge = _surface(args, grid)
+    ctx = get_context("search", None, 0, "none")
+    model, basis, desc = _fit(args, ctx, bands, mode)
     e_lx = class_illuminance_lx(SCENE["lighting_class"])
     resp = np.asarray(bands.response(jnp.asarray(grid)))
-    from ..scene import band_weights
-
     wts = np.asarray(band_weights(jnp.asarray(resp), jnp.asarray(grid)))
     vis = (grid >= 380) & (grid <= 780)
-    from ..photometry import ler as ler_fn
 
-    rows, notes, band_rad = [], [], []
-    for path, (values, note) in zip(args.lamps, lamps, strict=True):
+    truths, notes, band_rad = [], [], []
+    for _path, (values, note) in zip(args.lamps, lamps, strict=True):
         truth, valid = lamp_truth(values[None], grid)
         # lumens ∝ K_m ∫ V S dλ = LER · ∫ S dλ (380-780 nm)
         lumens = float(ler_fn(values[None, vis], grid[vis])[0]) * float(
             np.trapezoid(values[vis], grid[vis])
         )
         per_lx = values / lumens  # spectral irradiance per lux [W m-2 nm-1 lx-1]
-        toa = e_lx * refl[0] / math.pi * per_lx
+        toa = e_lx * refl / math.pi * per_lx
         band_rad.append(wts @ toa)
-        est_v = np.asarray(est.predict(jnp.asarray((wts @ toa)[None])))[0]
-        t = {
-            m: (float(truth[0, i]) if valid[0, i] else None)
-            for i, m in enumerate(METRICS)
-        }
-        rows.append(
+        truths.append(
             {
-                "file": str(path),
-                "true": t,
-                "estimate": {m: float(est_v[i]) for i, m in enumerate(METRICS)},
-                "predicted_level1": None,
-                "predicted_level2": None,
+                m: (float(truth[0, i]) if valid[0, i] else None)
+                for i, m in enumerate(METRICS)
             }
         )
         if note:
             notes.append(note)
-    from ..classify import predict_lamp_types
+    band_rad = np.asarray(band_rad)
+    if args.estimator == "inversion":
+        if mode == "class":
+            know = [knowledge] * len(band_rad)
+        elif mode == "measured":
+            know = np.repeat(basis.coords(refl[None]), len(band_rad), axis=0)
+        else:
+            know = None
+        res = model.predict(band_rad, know)
+        est_rows = [res.row(i) for i in range(len(band_rad))]
+    else:
+        from ..classify import predict_lamp_types
 
-    level1, level2 = predict_lamp_types(np.asarray(band_rad), bands)
-    for row, l1, l2 in zip(rows, level1, level2, strict=True):
-        row["predicted_level1"], row["predicted_level2"] = l1, l2
+        est_rows = _baseline_rows(*model, band_rad)
+        level1, level2 = predict_lamp_types(band_rad, bands)
+        for r, l1, l2 in zip(est_rows, level1, level2, strict=True):
+            r["predicted_level1"], r["predicted_level2"] = l1, l2
+    rows = []
+    for path, t, r in zip(args.lamps, truths, est_rows, strict=True):
+        rows.append(
+            {
+                "file": str(path),
+                "true": t,
+                "estimate": r["estimate"],
+                "interval90": r["interval90"],
+                "null_reasons": r["null_reasons"],
+                "unexplained": r["unexplained"],
+                "level1_probabilities": r["level1_probabilities"],
+                "predicted_level1": r["predicted_level1"],
+                "predicted_level2": r["predicted_level2"],
+            }
+        )
+    scene = {**SCENE, "surface": surface_label}
     out = {
         "bands": name,
         "scene": {
-            **SCENE,
+            **scene,
             "illuminance_lx": e_lx,
-            "estimator": "ridge on centred log band ratios, trained on "
-            f"{ctx.table.n_lamps} scored library lamps x "
-            f"{ctx.toa.shape[1]} scenes (preset 'search', no atmosphere)",
+            "estimator": args.estimator,
+            "estimator_description": desc,
+            "surface_knowledge": mode,
             "nir_policy": NIR_POLICY,
         },
         "lamps": rows,
         "notes": notes,
     }
+    if args.plot:
+        _plot(rows, name, args.estimator, args.plot)
     if args.json:
-        json.dump(out, sys.stdout, indent=2)
+        json.dump(out, sys.stdout, indent=2, allow_nan=False)
         print()
         return 0
-    print(f"bands: {name}; scene: {SCENE}")
+    print(f"bands: {name}; scene: {scene}; estimator: {args.estimator}")
     for r in rows:
         parts = []
         for m in METRICS:
-            tv = r["true"][m]
+            tv, ev, iv = r["true"][m], r["estimate"][m], (r["interval90"] or {}).get(m)
+            est_txt = "null" if ev is None else f"{ev:.4g}"
+            if iv:
+                est_txt += f" [{iv[0]:.4g}, {iv[1]:.4g}]"
             parts.append(
-                f"{m} true {'n/a' if tv is None else f'{tv:.4g}'} "
-                f"est {r['estimate'][m]:.4g}"
+                f"{m} true {'n/a' if tv is None else f'{tv:.4g}'} est {est_txt}"
             )
-        print(f"{r['file']}: " + "; ".join(parts))
+        flag = " UNEXPLAINED" if r["unexplained"] else ""
+        print(
+            f"{r['file']}: "
+            + "; ".join(parts)
+            + f"; type {r['predicted_level2'] or r['predicted_level1']}{flag}"
+        )
     for n in notes:
         print(
             f"note: {n['file']} extended beyond {n['measured_to_nm']:g} nm as "
             f"{n['nir_extension']} (nearest library lamp {n['nearest_library_lamp']})"
         )
     return 0
+
+
+def _plot(rows, bands_name, estimator, path):
+    """Truth vs estimate with 90 % intervals, one panel per metric."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    units = {"LER": "lm/W", "G": "1", "CCT": "K"}
+    fig, axes = plt.subplots(1, 3, figsize=(12, 4))
+    for ax, m in zip(axes, ("LER", "G", "CCT"), strict=True):
+        xs, ys, lo, hi = [], [], [], []
+        for r in rows:
+            t, e = r["true"][m], r["estimate"][m]
+            if t is None or e is None:
+                continue
+            iv = (r["interval90"] or {}).get(m) or [e, e]
+            xs.append(t)
+            ys.append(e)
+            lo.append(e - iv[0])
+            hi.append(iv[1] - e)
+        if xs:
+            ax.errorbar(
+                xs,
+                ys,
+                yerr=[lo, hi],
+                fmt="o",
+                capsize=3,
+                label="estimate, 90 % interval",
+            )
+            a, b = min(xs + ys), max(xs + ys)
+            ax.plot([a, b], [a, b], "k--", lw=1, label="1:1")
+            ax.legend(loc="best", fontsize=8)
+        else:
+            ax.text(
+                0.5,
+                0.5,
+                "no lamp with both values",
+                ha="center",
+                transform=ax.transAxes,
+            )
+        ax.set_xlabel(f"true {m} [{units[m]}]")
+        ax.set_ylabel(f"estimated {m} [{units[m]}]")
+    fig.suptitle(f"bandopt evaluate: {bands_name}, estimator {estimator}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

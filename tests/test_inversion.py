@@ -1,0 +1,186 @@
+"""The physics-based inversion: closed-form misfit against scipy's NNLS,
+self-consistency on prior lamps, brightness invariance, physical bounds on any
+input (hypothesis), the Sentinel-2 surface path, reject and calibration."""
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
+from scipy.optimize import nnls
+
+from bandopt import inversion as inv_mod
+from bandopt.datasets import surfaces
+from bandopt.sensor import BandSet
+
+
+GRID = np.arange(380.0, 901.0)
+
+
+def _weights(bands):
+    import jax.numpy as jnp
+
+    from bandopt.scene import band_weights
+
+    resp = jnp.asarray(bands.response(jnp.asarray(GRID)))
+    return np.asarray(band_weights(resp, jnp.asarray(GRID)))
+
+
+def _bands(spec):
+    c = np.array([a for a, _ in spec], float)
+    f = np.array([b for _, b in spec], float)
+    f = np.clip(np.minimum(f, 2 * np.minimum(c - 380, 900 - c) - 1), 15, None)
+    return BandSet.from_physical(c, f, 6.0, name="t")
+
+
+FIVE = _bands([(450, 60), (530, 60), (600, 50), (680, 60), (820, 80)])
+
+
+@pytest.fixture(scope="module")
+def lamps():
+    return inv_mod.library_lamps(GRID, scored=True)
+
+
+@pytest.fixture(scope="module")
+def basis():
+    return inv_mod.surface_basis(GRID)
+
+
+def test_chi2_matches_scipy_nnls():
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        b = rng.integers(2, 7)
+        p, q, y = rng.random((3, b))
+        y = y + rng.random() * p
+        w = rng.random(b) + 0.1
+        chi = float(inv_mod._chi2(y, w, p[None], q[None])[0])
+        sw = np.sqrt(w)
+        _, res = nnls(np.column_stack([p, q]) * sw[:, None], y * sw)
+        assert chi == pytest.approx(res**2, rel=1e-9, abs=1e-12)
+        chi1 = float(inv_mod._chi2(y, w, p[None], None)[0])
+        _, res1 = nnls((p * sw)[:, None], y * sw)
+        assert chi1 == pytest.approx(res1**2, rel=1e-9, abs=1e-12)
+
+
+def _pixel(spectrum_per_lm, refl, lux=10.0, weights=None):
+    w = _weights(FIVE) if weights is None else weights
+    return w @ (lux * refl * spectrum_per_lm / np.pi)
+
+
+def test_prior_lamp_is_recovered_and_brightness_free(lamps, basis):
+    inv = inv_mod.build_inversion(
+        lamps, _weights(FIVE), inv_mod.Conditions.clear(GRID), basis, sigma_rel=0.003
+    )
+    _, refl = surfaces.mean_reflectance(["asphalt"], GRID)
+    refl = basis.reflectance(basis.coords(refl))[0]  # exactly in the basis
+    picks = [lamps.level2.index(c) for c in ("hps", "led_cool", "mercury")]
+    y = np.stack([_pixel(lamps.spectra[i], refl) for i in picks])
+    res = inv.predict(y)
+    res2 = inv.predict(y * 123.4)
+    np.testing.assert_allclose(res.estimate, res2.estimate, rtol=1e-9)
+    _, misfit = inv.posterior(y)
+    for row, i in enumerate(picks):
+        # the generating lamp fits exactly (asphalt is a candidate surface)
+        assert misfit[row] < 1e-8
+        assert res.level2[row] == lamps.level2[i]
+        assert res.level1[row] == lamps.level1[i]
+    truth, valid = inv_mod.lamp_truth(lamps.spectra[picks], GRID)
+    ok = valid[:, 0]
+    np.testing.assert_allclose(res.estimate[ok, 0], truth[ok, 0], rtol=0.15)
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    centres=st.lists(st.floats(400, 880), min_size=1, max_size=6),
+    fwhm=st.floats(15, 150),
+    seed=st.integers(0, 2**16),
+    sigma=st.sampled_from(inv_mod.SIGMA_REL_GRID),
+)
+def test_estimates_never_leave_physical_range(lamps, basis, centres, fwhm, seed, sigma):
+    bands = _bands([(c, fwhm) for c in centres])
+    inv = inv_mod.build_inversion(
+        lamps, _weights(bands), inv_mod.Conditions.clear(GRID), basis, sigma_rel=sigma
+    )
+    inv = inv_mod.dataclasses.replace(inv, conformal=np.array([3.0, 3.0, 3.0]))
+    rng = np.random.default_rng(seed)
+    y = np.vstack(
+        [
+            rng.random((4, len(centres))) * 10.0 ** rng.uniform(-12, 3),
+            np.zeros((1, len(centres))),
+            np.eye(len(centres))[:1] * 1e-30,
+        ]
+    )
+    res = inv.predict(y)
+    for m, name in enumerate(inv_mod.METRICS):
+        lo, hi = inv_mod.PHYSICAL_RANGE[name]
+        e, iv = res.estimate[:, m], res.interval90[:, m]
+        fin = np.isfinite(e)
+        assert name == "CCT" or fin.all()
+        assert np.all((e[fin] >= lo) & (e[fin] <= hi))
+        assert np.all((iv[:, 0] >= lo - 1e-9) & (iv[:, 1] <= hi + 1e-9))
+        assert np.all((iv[fin, 0] <= e[fin] + 1e-9) & (e[fin] <= iv[fin, 1] + 1e-9))
+    np.testing.assert_allclose(res.level1_probabilities.sum(axis=1), 1.0)
+
+
+def test_sentinel2_responses_and_surface_retrieval(basis):
+    names, resp = inv_mod.sentinel2_response(GRID)
+    assert names[:3] == ("B01", "B02", "B03") and "B09" not in names
+    centroid = dict(zip(names, resp @ GRID / resp.sum(axis=1), strict=True))
+    # ESA's S2A central wavelengths (`ESA2017`): B4 664.6, B8 832.8 nm
+    assert centroid["B04"] == pytest.approx(664.6, abs=3)
+    assert centroid["B08"] == pytest.approx(832.8, abs=5)
+    _, grass = surfaces.mean_reflectance(["grass"], GRID)
+    obs = inv_mod.observe_sentinel2(np.repeat(grass, 50, axis=0), GRID, seed=3)
+    rec = basis.reflectance(inv_mod.surface_from_sentinel2(obs, basis))
+    band = grass @ resp.T / resp.sum(axis=1)
+    rec_band = rec @ resp.T / resp.sum(axis=1)
+    # the retrieval is at least as close to the truth as the noisy observation
+    assert np.mean(np.abs(rec_band - band)) < np.mean(np.abs(obs - band))
+    # and the red edge of vegetation survives (B8 >> B4)
+    assert np.all(rec_band[:, names.index("B08")] > 3 * rec_band[:, names.index("B04")])
+
+
+def test_surface_modes_validate_input(basis):
+    with pytest.raises(ValueError, match="surface mode"):
+        inv_mod.surface_candidates(basis, "psychic", 1)
+    with pytest.raises(ValueError, match="one surface type per pixel"):
+        inv_mod.surface_candidates(basis, "class", 2, ["grass"])
+    with pytest.raises(ValueError, match="basis coefficients"):
+        inv_mod.surface_candidates(basis, "measured", 2, np.zeros((2, 1)))
+    c, lp = inv_mod.surface_candidates(basis, "class", 2, ["grass", "asphalt"])
+    assert c.shape[:2] == lp.shape and np.allclose(c[..., 0], 1.0)
+    np.testing.assert_allclose(np.exp(lp).sum(axis=1), 1.0)
+
+
+def test_fit_calibrates_and_flags_non_lamp_pixels():
+    from bandopt.search import get_context
+
+    ctx = get_context("tiny", None, 0, "none")
+    recs = inv_mod.cross_validate(ctx, FIVE, estimators=("inversion",), folds=[0])
+    assert recs and all(r["out_of_range"] == 0 for r in recs)
+    cover = [r["LER_covered"] for r in recs]
+    assert np.mean(cover) >= 0.6
+    lamps, always, cond, _ = inv_mod.context_setup(ctx)
+    s = ctx.splits[0]
+    w = _weights(FIVE)
+    fit = inv_mod.fit_inversion(
+        ctx.radiance(FIVE),
+        ctx.table.lamp_of,
+        lamps,
+        s.train,
+        s.inner,
+        w,
+        cond,
+        always=always,
+    )
+    assert np.isfinite(fit.threshold) and np.all(fit.conformal >= 0)
+    assert fit.sigma_rel in inv_mod.SIGMA_REL_GRID
+    # two narrow lines at 450 and 820 nm: no lamp of the library looks like it
+    weird = np.exp(-0.5 * ((GRID - 450) / 3) ** 2) + np.exp(
+        -0.5 * ((GRID - 820) / 3) ** 2
+    )
+    _, refl = surfaces.mean_reflectance(["asphalt"], GRID)
+    res = fit.predict((w @ (refl[0] * weird))[None])
+    assert res.unexplained[0] and res.level1[0] is None
+    row = res.row(0)
+    assert (
+        row["estimate"]["LER"] is None and "unexplained" in row["null_reasons"]["LER"]
+    )
