@@ -889,6 +889,42 @@ ESTIMATORS = ("inversion", "ridge", "kernel")
 """Estimators `cross_validate` and `bandopt evaluate` know."""
 
 
+def fit_for_context(ctx, bands, radiance, train, inner, *, surface_mode="unknown"):
+    """`fit_inversion` on a `search.Context`'s scenes for one band set (surface
+    knowledge 'unknown' or 'class' — the per-row types come from the context)."""
+    import jax.numpy as jnp
+
+    from .scene import band_weights
+
+    lamps, always, cond, row_types = context_setup(ctx)
+    grid = ctx.wavelength_nm
+    resp = jnp.asarray(bands.response(jnp.asarray(grid)))
+    w = np.asarray(band_weights(resp, jnp.asarray(grid)))
+    return fit_inversion(
+        radiance,
+        ctx.table.lamp_of,
+        lamps,
+        np.asarray(train),
+        list(inner),
+        w,
+        cond,
+        basis=_basis(grid),
+        surface_mode=surface_mode,
+        row_surface=row_types if surface_mode == "class" else None,
+        always=always,
+    )
+
+
+_BASIS_CACHE: dict = {}
+
+
+def _basis(grid) -> "SurfaceBasis":
+    key = (float(grid[0]), float(grid[-1]), len(grid))
+    if key not in _BASIS_CACHE:
+        _BASIS_CACHE[key] = surface_basis(grid)
+    return _BASIS_CACHE[key]
+
+
 _SETUP_CACHE: dict = {}
 
 
@@ -966,7 +1002,7 @@ def cross_validate(
     w = np.asarray(band_weights(resp, jnp.asarray(grid)))
     row_lamp = np.asarray(ctx.table.lamp_of)
     truth, valid = ctx.table.truth, ctx.table.valid
-    basis = surface_basis(grid)
+    basis = _basis(grid)
     surf_in = {
         "unknown": None,
         "class": row_types,
@@ -1170,7 +1206,7 @@ def leave_one_class_out(ctx, bands, *, surface_mode: str = "unknown", seed: int 
     w = np.asarray(band_weights(resp, jnp.asarray(grid)))
     row_lamp = np.asarray(ctx.table.lamp_of)
     classes = np.asarray(lamps.level2, dtype=object)
-    basis = surface_basis(grid)
+    basis = _basis(grid)
     si = {
         "unknown": None,
         "class": row_types,
