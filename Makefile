@@ -8,8 +8,8 @@ export MPLBACKEND ?= Agg
 SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: run test test-slow lint bench atmospheres surfaces library ler g cct sweep \
-        compare classify radiometry spatial noise-aware report check-report docs \
-        tutorial clean
+        compare classify radiometry spatial noise-aware estimate report check-report \
+        docs tutorial clean
 
 $(STAMP): pyproject.toml requirements.lock
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
@@ -35,6 +35,7 @@ bench: $(STAMP)  ## benchmarks; ratios against baselines of the same run in resu
 	$(BIN)/python -m experiments.bench_forward
 	$(BIN)/python -m experiments.bench_search
 	$(BIN)/python -m experiments.bench_spatial
+	$(BIN)/python -m experiments.bench_inversion
 
 atmospheres: $(STAMP)  ## regenerate the 6S tables (25-50 min on 2 cores; never in make test)
 	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test,atmos]' || true
@@ -61,6 +62,9 @@ compare: $(STAMP)
 	$(BIN)/python -m experiments.search compare
 noise-aware: $(STAMP)
 	$(BIN)/python -m experiments.noise_aware
+
+estimate: $(STAMP)  ## inversion vs regression estimators on held-out and unseen lamp types (results/estimate)
+	$(BIN)/python -m experiments.estimate
 
 classify: $(STAMP)  ## lamp-type classification (writes recommendation.json "classification")
 	$(BIN)/python -m experiments.classify
