@@ -63,7 +63,7 @@ compare: $(STAMP)
 noise-aware: $(STAMP)
 	$(BIN)/python -m experiments.noise_aware
 
-estimate: $(STAMP)  ## inversion vs regression estimators on held-out and unseen lamp types (results/estimate)
+estimate: $(STAMP)  ## inversion vs regression on held-out and unseen lamps (writes recommendation.json "estimation")
 	$(BIN)/python -m experiments.estimate
 
 classify: $(STAMP)  ## lamp-type classification (writes recommendation.json "classification")

@@ -184,3 +184,33 @@ def test_fit_calibrates_and_flags_non_lamp_pixels():
     assert (
         row["estimate"]["LER"] is None and "unexplained" in row["null_reasons"]["LER"]
     )
+
+
+def test_summaries_are_class_balanced_and_paired_by_partition():
+    recs = []
+    for p, (a, b) in enumerate([(1.0, 3.0), (2.0, 6.0)]):
+        for bs, scale in (("recommended", 1.0), ("sdgsat-1", 2.0)):
+            # class x has 3 lamps with error a, class y one lamp with error b
+            for lamp, (c, e) in enumerate([("x", a)] * 3 + [("y", b)]):
+                recs.append(
+                    {
+                        "band_set": bs,
+                        "estimator": "inversion",
+                        "surface": "unknown",
+                        "partition": p,
+                        "lamp": f"l{lamp}",
+                        "level2": c,
+                        "out_of_range": 0,
+                        "LER": scale * e,
+                        "G": None,
+                    }
+                )
+    rows = inv_mod.summarise(recs)
+    rec = next(r for r in rows if r["band_set"] == "recommended")
+    # class-balanced: (a + b)/2 per partition -> 2 and 4
+    assert rec["LER_per_partition"] == [2.0, 4.0]
+    assert rec["LER"] == 3.0 and rec["LER_sd"] == pytest.approx(np.sqrt(2.0))
+    assert "G" not in rec
+    (pd,) = inv_mod.paired_differences(rows, "recommended", "sdgsat-1")
+    assert pd["LER_diff"] == 3.0 and pd["LER_diff_sd"] == pytest.approx(np.sqrt(2.0))
+    assert pd["LER_relative"] == pytest.approx(1.0)

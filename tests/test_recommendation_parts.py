@@ -16,7 +16,7 @@ from pathlib import Path
 
 
 ROOT = Path(__file__).resolve().parents[1]
-PARTS = {"spectral", "classification", "radiometry", "spatial"}
+PARTS = {"spectral", "classification", "radiometry", "spatial", "estimation"}
 
 
 def _targets() -> dict[str, tuple[str, list[str]]]:
