@@ -9,8 +9,9 @@ lamps. Then hold out every scored lamp class in turn (unseen types).
 
     python -m experiments.estimate [--partitions 4] [--quick] [--out DIR]
 
-Writes `records.jsonl` (one line per test lamp; resumable: finished
-(partition, band set) units are kept and skipped), `summary.json/.csv`,
+Writes `records.jsonl` (one line per test lamp; recomputed from scratch unless
+`--resume`, which keeps finished (partition, band set) units of an interrupted
+run and skips them), `summary.json/.csv`,
 `paired.json`, `unseen_types.json`, figures and `manifest.json`. Training uses
 measured lamps only (the NIR extension of lamps ending at 780 nm is modelled:
 `bandopt.datasets.nir`; counts in the manifest); scoring uses measured lamps
@@ -61,6 +62,12 @@ def main(argv=None) -> int:
         "--no-unseen", action="store_true", help="skip the held-out-class study"
     )
     ap.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep finished (partition, band set) units of records.jsonl "
+        "(default: start afresh)",
+    )
+    ap.add_argument(
         "--summarise-only",
         action="store_true",
         help="recompute summaries, figures, the README section and the "
@@ -84,6 +91,8 @@ def main(argv=None) -> int:
     rec_path = out / "records.jsonl"
     done = set()
     records = []
+    if rec_path.is_file() and not (args.resume or args.summarise_only):
+        rec_path.unlink()  # results are recomputed, not replayed
     if rec_path.is_file():
         for i, line in enumerate(rec_path.read_text().splitlines()):
             try:
