@@ -379,6 +379,31 @@ def _score_chunk(y, cand, log_ps, a, q, log_pk, sigmas):
     return jax.vmap(one)(y, cand, log_ps)
 
 
+@jax.jit
+def _score_chunk_shared(y, p, qq, log_ps, log_pk, sigmas):
+    """`_score_chunk` when every pixel has the same surface candidates: the
+    candidate band terms `p (k, s, a, b)`, `qq (1, s, a, b)` are computed once."""
+
+    def one(yp):
+        m = jnp.mean(jnp.abs(yp))
+        yn = yp / jnp.where(m > 0, m, 1.0)
+
+        def at(sigma):
+            sd = sigma * jnp.abs(yn) + SIGMA_FLOOR
+            chi = _chi2(yn, 1.0 / sd**2, p, qq)
+            lw = -0.5 * chi + log_ps[None, :, None]
+            lk = logsumexp(lw.reshape(lw.shape[0], -1), axis=1) + log_pk
+            return lk, jnp.min(chi)
+
+        return jax.lax.map(at, sigmas)
+
+    return jax.vmap(one)(y)
+
+
+SHARED_CHUNK = 1024
+"""Pixels per compiled call when the surface candidates are shared."""
+
+
 K_BUCKET = 32
 """Prior sizes are padded to a multiple of this (one compilation for priors
 of similar size; padded lamps have zero spectra and zero prior)."""
@@ -398,6 +423,26 @@ def _score(y, cand, log_ps, a, q, log_pk, sigmas):
         x = np.asarray(x, float)
         return np.concatenate([x, np.full((pad, *x.shape[1:]), fill)])
 
+    cand = np.asarray(cand, float)
+    if n > 1 and np.all(cand == cand[:1]) and np.all(log_ps == log_ps[:1]):
+        # one set of surface candidates for every pixel (mode 'unknown')
+        p = jnp.einsum("kabr,sr->ksab", jnp.asarray(a), jnp.asarray(cand[0]))
+        qq = None if q is None else jnp.einsum("abr,sr->sab", q, cand[0])[None]
+        npad = -(-n // SHARED_CHUNK) * SHARED_CHUNK
+        y = np.concatenate([y, np.ones((npad - n, y.shape[1]))])
+        lks, chis = [], []
+        for i in range(0, npad, SHARED_CHUNK):
+            lk, chi = _score_chunk_shared(
+                jnp.asarray(y[i : i + SHARED_CHUNK]),
+                p,
+                None if qq is None else jnp.asarray(qq),
+                jnp.asarray(log_ps[0]),
+                jnp.asarray(log_pk),
+                jnp.asarray(np.asarray(sigmas, float)),
+            )
+            lks.append(np.asarray(lk))
+            chis.append(np.asarray(chi))
+        return np.concatenate(lks)[:n, :, :k], np.concatenate(chis)[:n]
     y, cand, log_ps = padded(y, 1.0), padded(cand, 0.0), padded(log_ps, 0.0)
     cand[n:, :, 0] = 1.0
     args = (
@@ -718,17 +763,15 @@ def _result(inv: Inversion, post, misfit) -> InversionResult:
     parents = [LEVEL2_PARENT.get(c, c) for c in l2]
     l1 = [c for c in LEVEL1 if c in parents]
     p1 = p2 @ np.array([[p == c for c in l1] for p in parents], float)
-    pred1, pred2 = [], []
-    for i in range(post.shape[0]):
-        if unexplained[i]:
-            pred1.append(None)
-            pred2.append(None)
-            continue
-        k1 = l1[int(np.argmax(p1[i]))]
-        inside = [j for j, p in enumerate(parents) if p == k1]
-        k2 = l2[inside[int(np.argmax(p2[i, inside]))]]
-        pred1.append(k1)
-        pred2.append(k2 if k2 in LEVEL2 else None)
+    parent_idx = np.array([l1.index(p) for p in parents])
+    i1 = np.argmax(p1, axis=1)
+    inside = parent_idx[None, :] == i1[:, None]
+    i2 = np.argmax(np.where(inside, p2, -1.0), axis=1)
+    pred1 = [None if u else l1[a] for u, a in zip(unexplained, i1, strict=True)]
+    pred2 = [
+        None if u or l2[b] not in LEVEL2 else l2[b]
+        for u, b in zip(unexplained, i2, strict=True)
+    ]
     return InversionResult(
         est,
         iv,

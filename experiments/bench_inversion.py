@@ -13,6 +13,7 @@ and their ratio. Compilation is excluded (a warm-up call first).
 
 import argparse
 import json
+import os
 import time
 from pathlib import Path
 
@@ -78,8 +79,12 @@ def main(argv=None) -> int:
         "ridge_s_per_pixel": t_ridge / n,
         "ratio_inversion_to_ridge": t_inv / t_ridge,
         "inversion_fit_s": t_fit,
+        "load_average_1_5_15min": list(os.getloadavg()),
+        "cpu_count": os.cpu_count(),
         "ridge_fit_s": t_fit_ridge,
-        "note": "best of 3 after a warm-up call; predict includes intervals, class "
+        "note": "best of 3 after a warm-up call; measured while other jobs shared "
+        "the machine (see load_average): compare the ratio, not absolute times; "
+        "predict includes intervals, class "
         "probabilities and the reject test; fit includes the inner-fold choice of "
         "sigma_rel and the conformal calibration",
     }

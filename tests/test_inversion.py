@@ -214,3 +214,19 @@ def test_summaries_are_class_balanced_and_paired_by_partition():
     (pd,) = inv_mod.paired_differences(rows, "recommended", "sdgsat-1")
     assert pd["LER_diff"] == 3.0 and pd["LER_diff_sd"] == pytest.approx(np.sqrt(2.0))
     assert pd["LER_relative"] == pytest.approx(1.0)
+
+
+def test_shared_candidate_fast_path_matches_per_pixel_path(lamps, basis):
+    inv = inv_mod.build_inversion(
+        lamps.take(range(40)), _weights(FIVE), inv_mod.Conditions.clear(GRID), basis
+    )
+    rng = np.random.default_rng(0)
+    y = rng.random((5, 5)) + 0.1
+    cand, lps = inv.candidates(5)
+    a, q = inv.design
+    fast = inv_mod._score(y, cand, lps, a, q, inv.prior.log_prior, [0.01, 0.1])
+    cand2 = cand.copy()
+    cand2[0, 0, 1] += 1e-9  # pixel 0 differs: the general per-pixel path runs
+    slow = inv_mod._score(y, cand2, lps, a, q, inv.prior.log_prior, [0.01, 0.1])
+    np.testing.assert_allclose(fast[0][1:], slow[0][1:], rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(fast[1][1:], slow[1][1:], rtol=1e-10, atol=1e-12)
