@@ -68,6 +68,7 @@ from .datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT
 from .estimate import CCT_RANGE_K, METRICS, MIRED, lamp_truth
 from .folds import class_balanced_weights
 from .photometry import G_CAP, K_M_LM_PER_W
+from .scene import band_weights
 
 
 SURFACE_MODES = ("unknown", "class", "measured")
@@ -932,14 +933,9 @@ ESTIMATORS = ("inversion", "ridge", "kernel")
 def fit_for_context(ctx, bands, radiance, train, inner, *, surface_mode="unknown"):
     """`fit_inversion` on a `search.Context`'s scenes for one band set (surface
     knowledge 'unknown' or 'class' — the per-row types come from the context)."""
-    import jax.numpy as jnp
-
-    from .scene import band_weights
-
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
-    resp = jnp.asarray(bands.response(jnp.asarray(grid)))
-    w = np.asarray(band_weights(resp, jnp.asarray(grid)))
+    w = band_weights_on(bands, grid)
     return fit_inversion(
         radiance,
         ctx.table.lamp_of,
@@ -1005,6 +1001,25 @@ def _context_setup(ctx):
     return lamps, always, Conditions.from_scenarios(scen), row_types
 
 
+def band_weights_on(bands, wavelength_nm) -> np.ndarray:
+    """Band-averaging weights `(b, w)` of a band set on a grid (`band_weights`)."""
+    grid = jnp.asarray(np.asarray(wavelength_nm, float))
+    return np.asarray(band_weights(jnp.asarray(bands.response(grid)), grid))
+
+
+def _surface_knowledge(row_types, basis: SurfaceBasis, seed: int) -> dict:
+    """Per-row surface input of each mode (the Sentinel-2 draw only when asked)."""
+
+    class _Lazy(dict):
+        def __missing__(self, key):
+            if key != "measured":
+                raise KeyError(key)
+            self[key] = measured_surfaces(row_types, basis, seed=seed)
+            return self[key]
+
+    return _Lazy(unknown=None, **{"class": row_types})
+
+
 def measured_surfaces(row_types, basis: SurfaceBasis, *, seed: int = 0):
     """Per-row surface coefficients from a simulated daytime Sentinel-2
     measurement of each row's true (type-mean) surface, (N, r)."""
@@ -1030,24 +1045,16 @@ def cross_validate(
     mired), interval coverage, level-1 correctness and unexplained rate
     (inversion only) and the number of rows whose estimate left the physical
     range (must be 0)."""
-    import jax.numpy as jnp
-
     from .estimate import fit_estimator, fit_kernel_estimator
-    from .scene import band_weights
 
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
     rad = ctx.radiance(bands)
-    resp = jnp.asarray(bands.response(jnp.asarray(grid)))
-    w = np.asarray(band_weights(resp, jnp.asarray(grid)))
+    w = band_weights_on(bands, grid)
     row_lamp = np.asarray(ctx.table.lamp_of)
     truth, valid = ctx.table.truth, ctx.table.valid
     basis = _basis(grid)
-    surf_in = {
-        "unknown": None,
-        "class": row_types,
-        "measured": measured_surfaces(row_types, basis, seed=seed),
-    }
+    surf_in = _surface_knowledge(row_types, basis, seed)
     out = []
     folds = range(len(ctx.splits)) if folds is None else folds
     for k in folds:
@@ -1237,24 +1244,16 @@ def leave_one_class_out(ctx, bands, *, surface_mode: str = "unknown", seed: int 
     """Unseen lamp types: for every scored level-2 class, fit on all other
     classes (inner folds: 2 class-stratified lamp folds of those) and score its
     lamps. One record per test lamp as `cross_validate` (fold = the class)."""
-    import jax.numpy as jnp
-
     from .folds import stratified_lamp_folds
-    from .scene import band_weights
 
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
     rad = ctx.radiance(bands)
-    resp = jnp.asarray(bands.response(jnp.asarray(grid)))
-    w = np.asarray(band_weights(resp, jnp.asarray(grid)))
+    w = band_weights_on(bands, grid)
     row_lamp = np.asarray(ctx.table.lamp_of)
     classes = np.asarray(lamps.level2, dtype=object)
     basis = _basis(grid)
-    si = {
-        "unknown": None,
-        "class": row_types,
-        "measured": measured_surfaces(row_types, basis, seed=seed),
-    }[surface_mode]
+    si = _surface_knowledge(row_types, basis, seed)[surface_mode]
     out = []
     for c in sorted(set(classes)):
         test = np.flatnonzero(classes == c)
