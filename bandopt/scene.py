@@ -1,50 +1,88 @@
 """Scenario sets and the factorised top-of-atmosphere radiance model.
 
-A scenario is one lamp x surface x atmosphere x Moon state x lighting class.
-The top-of-atmosphere spectral radiance of a pixel [W m⁻² sr⁻¹ nm⁻¹] is
+A scenario is one lamp x surface x atmosphere x Moon state x lighting class,
+seen in a neighbourhood. The top-of-atmosphere spectral radiance of a pixel
+[W m⁻² sr⁻¹ nm⁻¹] is
 
-    L_toa = T_up · [ ρ/π · ( E_c · S_l + T_down · E_moon · cos θ_moon )
-                     + f_up · L_direct + f_fire · ε · B(T_fire) ] + L_path,moon
+    L_toa = T_dir · L_pixel + T_dif · L_neighbourhood + L_path,moon
+
+    L_pixel = ρ/π · ( E_c · S_l + T_down · E_moon · cos θ_moon )
+              + f_up · E_c · S_l + f_fire · ε · B(T_fire)
+
+    L_neighbourhood = ρ_n/π · ( k · E_c · S_l + T_down · E_moon · cos θ_moon )
+                      + k · ( f_up · E_c · S_l + f_fire · ε · B(T_fire) )
 
 with, per term:
 
-- `T_up(λ)`: one-way *total* (direct + diffuse) upward transmittance from the
-  surface to the sensor at the view zenith (6S tables,
-  `bandopt.datasets.atmosphere`). Total rather than direct because the pixel is
-  assumed to sit in a uniform neighbourhood, where light scattered into the
-  view from neighbouring pixels compensates light scattered out of it;
-  adjacency effects at lamp scale are neglected, as in the thesis (section 2.4).
-- `ρ(λ)`: Lambertian surface reflectance (`bandopt.datasets.surfaces`).
+- `T_dir(λ)`, `T_dif(λ)`: the direct (unscattered, gas x `exp(-τ/cos θv)`) and
+  diffuse parts of the one-way upward transmittance at the view zenith (6S
+  tables, `bandopt.datasets.atmosphere`; `T_dir + T_dif = T_up`, the total).
+  A pixel of 10-100 m sees its own ground through the direct part; the diffuse
+  part is light scattered into the view from a footprint of about 1 km
+  (aerosol) to tens of km (Rayleigh) around it, the adjacency effect (6S's
+  pixel/background split, `Vermote1997`). With a **uniform neighbourhood**
+  (`L_neighbourhood = L_pixel`) this is `T_up · L_pixel`, the model of the
+  thesis (section 2.4) and of coarse sensors (VIIRS, 750 m).
+- The neighbourhood (`Neighbourhood`): a fraction `lit_fraction` of it is lit
+  by lamps like the pixel's at `relative_illuminance` times the pixel's class
+  illuminance, the rest only by the Moon; `k = lit_fraction x
+  relative_illuminance`. Its ground `ρ_n` is the pixel's surface or a stated
+  background surface; the whole neighbourhood is moonlit. Luminaire uplight
+  and fires scale with `k` like the lamp light (a stated simplification).
+  ``"lit_street_dark_district"`` (k = 0.1, the pixel's surface) is a lit
+  street at the ~10 m GSD this project recommends in a dark district;
+  ``"uniform"`` reproduces the total-transmittance model exactly. The default
+  is `DEFAULT_NEIGHBOURHOOD` (for now ``"uniform"``: the shipped 6S tables
+  predate the direct transmittance; it becomes ``"lit_street_dark_district"``
+  with the regenerated tables).
+- `ρ(λ)`: Lambertian surface reflectance (`bandopt.datasets.surfaces`); a
+  mixed pixel (`surfaces` entry ``(a, b, fraction)``) has the area-weighted
+  mean reflectance.
 - `E_c · S_l(λ)`: the lamp's spectral irradiance on the ground. `S_l` is the
   library spectrum per lumen [W nm⁻¹ lm⁻¹] and `E_c` the average horizontal
   illuminance [lx] of EN 13201-2 lighting class `c`; M classes (road luminance
   seen by a driver) become illuminance with the road's average luminance
   coefficient, `E = L / Q0`. So the lamp scale factor depends on lamp x class
-  only and the same illuminance lights every surface of the scene.
+  only and the same illuminance lights every surface of the scene. A pixel lit
+  by two lamp types (`lamps` entry ``(a, b, fraction)``) has the
+  illuminance-weighted mean spectrum.
 - `T_down · E_moon · cos θ_moon`: moonlight on the ground (ROLO irradiance at
   the top of the atmosphere, `bandopt.datasets.moon`, times the one-way
   downward total transmittance at the Moon's zenith).
-- `f_up · L_direct`: light a luminaire sends straight up, seen directly by the
-  sensor. With an upward light output ratio `u` (0-0.5) and the downward flux
-  landing in the pixel, the upward flux per ground area is `E_c u / (1 - u)`;
-  spread over the pixel as a Lambertian emitter its radiance is
-  `E_c u / (1 - u) / π · S_l`.
+- `f_up · E_c · S_l`: light the luminaires send towards the sensor, seen
+  directly. The luminaires of the pixel emit `Φ/A = E_c / d` lumen per ground
+  area (their downward fraction `d` lands in the pixel at `E_c`) with the
+  intensity per lumen `i(θ)` of a measured azimuth-averaged profile
+  (Illumina's `*_pcUPLIGHT.lop`, `Aube2018`, by nominal uplight percentage,
+  linear mixing between files), so at view zenith θv (the zenith angle of the
+  direction towards the sensor) `f_up = i(θv) / (d cos θv)` [sr⁻¹]
+  (`uplight_factor`). The old Lambertian shortcut `u / (1 - u) / π` is
+  available as `uplight_model="lambertian"`.
 - `f_fire · ε · B(T_fire)`: blackbody emission (Planck) of a burning fraction
   of the pixel with emissivity ε (fire scenes only).
 - `L_path,moon`: path radiance of moonlight scattered by the atmosphere
   (6S intrinsic reflectance x lunar irradiance). Path radiance of *lamp* light
-  is neglected (thesis section 2.4).
+  is neglected (thesis section 2.4), as is the coupling of ground and
+  atmosphere (multiple reflections, a factor `1/(1 - ρ_n S)`: 1-3 % for ρ
+  0.1-0.3 with 6S's spherical albedo S = 0.10 at 550 nm, mid-latitude summer,
+  urban, 23 km); the diffuse transmittance is 6S's for a Lambertian source,
+  also for uplight.
 
 **Cost.** Band radiance is linear in every factor, so the band radiance of
 every combination is a contraction over wavelength of small factor arrays
 (`band_terms`), never the full lamp x surface x atmosphere x moon x class x
-wavelength array. A term a scenario set lacks (no Moon, no uplight, no fire, no
-atmosphere) is `None` and costs nothing.
+wavelength array. The neighbourhood only changes the transmittance the lamp
+terms are contracted with (`T_dir + k T_dif`, one array per atmosphere), and a
+background surface adds one (lamp, atmosphere, band) and one (atmosphere, moon,
+band) contraction. A term a scenario set lacks (no Moon, no uplight, no fire,
+no atmosphere, uniform neighbourhood) is `None` and costs nothing.
 """
 
 import dataclasses
+import functools
 import math
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from types import MappingProxyType
 
 import equinox as eqx
@@ -55,6 +93,13 @@ from jaxtyping import Array, Float
 
 from .spectra import GRID_1NM, planck_radiance, trapezoid_weights
 
+
+PHYSICS_VERSION = 2
+"""Version of the radiance model, recorded in every `ScenarioSet.config`: 1 =
+total transmittance and Lambertian uplight (until 2026-11-25); 2 = direct +
+diffuse transmittance with a stated neighbourhood, uplight from measured
+luminaire profiles, mixed pixels. Caches of results computed from scenario sets
+should include it."""
 
 LIGHTING_CLASSES: Mapping[str, tuple[str, float]] = MappingProxyType(
     {
@@ -112,6 +157,204 @@ class AtmosphereSpec:
 NO_ATMOSPHERE = "none"
 
 
+@dataclasses.dataclass(frozen=True)
+class Neighbourhood:
+    """The ground around a pixel that the diffuse upward transmittance sees
+    (the adjacency footprint: about 1 km for aerosol scattering, tens of km
+    for Rayleigh; `Vermote1997`).
+
+    - `lit_fraction`: fraction of its area lit by lamps like the pixel's;
+      the rest is lit by the Moon only. [1]
+    - `relative_illuminance`: mean illuminance of the lit part relative to the
+      pixel's lighting class (1: lit to the same class). [1]
+    - `surface`: its ground (a surface type), or None for the pixel's own.
+    - `name`: a label for configs and reports.
+
+    Only `k = lit_fraction x relative_illuminance` enters the lamp terms.
+    `lit_fraction = relative_illuminance = 1` with the pixel's surface is the
+    uniform neighbourhood (`NEIGHBOURHOODS["uniform"]`): total transmittance,
+    the direct part is not computed at all.
+    """
+
+    lit_fraction: float = 1.0
+    relative_illuminance: float = 1.0
+    surface: str | None = None
+    name: str = "custom"
+
+    def __post_init__(self):
+        if not 0.0 <= self.lit_fraction <= 1.0:
+            raise ValueError(
+                f"Neighbourhood lit_fraction must lie in [0, 1], got "
+                f"{self.lit_fraction!r}."
+            )
+        if not (
+            math.isfinite(self.relative_illuminance) and self.relative_illuminance >= 0
+        ):
+            raise ValueError(
+                "Neighbourhood relative_illuminance must be finite and >= 0, got "
+                f"{self.relative_illuminance!r}."
+            )
+
+    @property
+    def lamp_factor(self) -> float:
+        """`k`: the neighbourhood's mean lamp light relative to the pixel's. [1]"""
+        return self.lit_fraction * self.relative_illuminance
+
+    @property
+    def is_uniform(self) -> bool:
+        """Looks like the pixel: total transmittance, no direct part needed."""
+        return (
+            self.lit_fraction == 1.0
+            and self.relative_illuminance == 1.0
+            and self.surface is None
+        )
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+NEIGHBOURHOODS: Mapping[str, Neighbourhood] = MappingProxyType(
+    {
+        "uniform": Neighbourhood(1.0, 1.0, None, "uniform"),
+        "lit_street_dark_district": Neighbourhood(
+            0.1, 1.0, None, "lit_street_dark_district"
+        ),
+        "isolated": Neighbourhood(0.0, 1.0, None, "isolated"),
+    }
+)
+"""Named neighbourhoods. `uniform`: the total-transmittance model (coarse
+pixels, a uniformly lit city; thesis section 2.4). `lit_street_dark_district`
+: a street pixel at ~10 m GSD whose adjacency footprint is lit over 10 % of
+its area at the same class, e.g. lit streets (10-20 m lit width) every
+100-200 m with dark blocks between; a stated modelling choice, not a
+measurement. Its lamp radiance is the `isolated` one times
+`1 + 0.1 T_dif/T_dir`: +3.3 / +2.0 / +0.9 % at 450 / 550 / 800 nm
+(mid-latitude summer, urban, 23 km; 6S total/direct 1.33 / 1.20 / 1.09) and
++9 / +6 / +3 % (tropical, urban, 5 km), against +33 / +20 / +9 % and
++91 / +61 / +29 % for `uniform`, so the choice of k in 0-0.1 matters little
+and `uniform` a lot. `isolated`: nothing lit around the pixel (direct
+transmittance only for lamp light)."""
+
+DEFAULT_NEIGHBOURHOOD = "uniform"
+"""Neighbourhood of `build_scenarios` by default: ``"uniform"`` until the
+regenerated 6S tables (with the direct transmittance) are shipped."""
+
+
+def resolve_neighbourhood(neighbourhood: "str | Neighbourhood") -> Neighbourhood:
+    """A `Neighbourhood` from a name of `NEIGHBOURHOODS` (case and separators
+    ignored) or itself."""
+    if isinstance(neighbourhood, Neighbourhood):
+        return neighbourhood
+    keys = {_canon(k): k for k in NEIGHBOURHOODS}
+    key = _canon(str(neighbourhood))
+    if key not in keys:
+        raise ValueError(
+            f"Unknown neighbourhood {neighbourhood!r}; expected one of "
+            f"{list(NEIGHBOURHOODS)} or a `Neighbourhood`."
+        )
+    return NEIGHBOURHOODS[keys[key]]
+
+
+def _canon(name: str) -> str:
+    return "".join(ch for ch in name.lower() if ch.isalnum())
+
+
+# ------------------------------------------------------------------ uplight
+UPLIGHT_PROFILE_PERCENT: tuple[int, ...] = (0, 1, 2, 5, 10, 15, 20, 50)
+"""Nominal uplight percentages of Illumina's luminaire profiles (`Aube2018`)."""
+UPLIGHT_MODELS: tuple[str, ...] = ("profile", "lambertian")
+_LOP_DIR = Path(__file__).resolve().parent / "spatial" / "data" / "luminaires"
+
+
+@functools.cache
+def uplight_profiles() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Illumina's azimuth-averaged luminaire profiles `<p>_pcUPLIGHT.lop`
+    (`Aube2018`, GPL-3.0, vendored verbatim in `bandopt/spatial/data/luminaires/`)
+    normalised to a luminaire flux of 1 lm.
+
+    Returns `(percent, zenith_deg, intensity, downward)`: nominal uplight
+    percentages (p,); zenith angles 0 (straight up) .. 180 (p, z) [deg];
+    intensity per lumen `i(z)` with `2π ∫ i sin z dz = 1` (trapezoid rule in z
+    on the files' 1° grid) (p, z) [cd lm⁻¹ = sr⁻¹]; downward fraction `d` of
+    the flux (zenith 90-180°, the 90° sample shared half and half) (p,) [1].
+    """
+    from .spatial import read_lop
+
+    zen, inten, down = [], [], []
+    for pc in UPLIGHT_PROFILE_PERCENT:
+        table = read_lop(_LOP_DIR / f"{pc}_pcUPLIGHT.lop")
+        z = 180.0 - np.asarray(table.gamma_deg, float)[::-1]
+        i = np.asarray(table.intensity, float)[0, ::-1]
+        if z[0] != 0.0 or z[-1] != 180.0:
+            raise ValueError(f"{table.source}: zenith angles must span 0-180 degrees.")
+        d, up = _hemisphere_fluxes(z, i)
+        zen.append(z)
+        inten.append(i / (d + up))
+        down.append(d / (d + up))
+    if any(z.shape != zen[0].shape or np.any(z != zen[0]) for z in zen):
+        raise ValueError(f"The profiles in {_LOP_DIR} use different zenith grids.")
+    return (
+        np.asarray(UPLIGHT_PROFILE_PERCENT, float),
+        np.asarray(zen[0]),
+        np.asarray(inten),
+        np.asarray(down),
+    )
+
+
+def _hemisphere_fluxes(z_deg: np.ndarray, i: np.ndarray) -> tuple[float, float]:
+    """(downward, upward) flux `2π ∫ i sin z dz` by the trapezoid rule, split at
+    z = 90° (which must be a grid node). [unit of i x sr]"""
+    zr = np.radians(z_deg)
+    f = 2 * np.pi * i * np.sin(zr)
+    seg = 0.5 * (f[1:] + f[:-1]) * np.diff(zr)
+    mid = 0.5 * (z_deg[1:] + z_deg[:-1])
+    if not np.any(z_deg == 90.0):
+        raise ValueError("The profile's zenith grid must contain 90 degrees.")
+    return float(seg[mid > 90].sum()), float(seg[mid < 90].sum())
+
+
+def uplight_factor(
+    uplight_ratio: float, view_zenith_deg: float = 0.0, model: str = "profile"
+) -> float:
+    """`f_up`: direct uplight radiance per unit ground illuminance, seen at
+    `view_zenith_deg` (the zenith angle of the direction towards the sensor).
+    [sr⁻¹]; times `E_c S_l` it is spectral radiance.
+
+    - ``model="profile"``: `i(θv) / (d cos θv)` from Illumina's profiles
+      (`uplight_profiles`); `uplight_ratio` is the nominal uplight fraction of
+      the files (0, 0.01, 0.02, 0.05, 0.10, 0.15, 0.20, 0.50), between them
+      the two neighbouring profiles are mixed linearly (a mix of luminaires;
+      intensity and downward fraction mix with the same weights); `i` is
+      linear in zenith angle between the files' 1° samples.
+    - ``model="lambertian"``: the thesis's shortcut `u / (1 - u) / π`
+      (upward flux `u/(1-u)` of the ground illuminance, emitted as a
+      Lambertian surface), which over-states nadir uplight 2x (50 % profile)
+      to > 100x (5-10 %) against the measured profiles.
+    """
+    u = float(uplight_ratio)
+    if not 0.0 <= u <= 0.5:
+        raise ValueError(f"uplight_ratio must lie in [0, 0.5], got {uplight_ratio!r}.")
+    v = float(view_zenith_deg)
+    if not 0.0 <= v < 90.0:
+        raise ValueError(
+            f"view_zenith_deg must lie in [0, 90), got {view_zenith_deg!r}."
+        )
+    key = _canon(str(model))
+    if key not in UPLIGHT_MODELS:
+        raise ValueError(
+            f"Unknown uplight model {model!r}; expected one of {list(UPLIGHT_MODELS)}."
+        )
+    if key == "lambertian":
+        return u / (1 - u) / math.pi
+    pc, z, inten, down = uplight_profiles()
+    x = 100.0 * u
+    j = int(np.clip(np.searchsorted(pc, x, side="right") - 1, 0, pc.size - 2))
+    w = (x - pc[j]) / (pc[j + 1] - pc[j])
+    i_v = (1 - w) * np.interp(v, z, inten[j]) + w * np.interp(v, z, inten[j + 1])
+    d = (1 - w) * down[j] + w * down[j + 1]
+    return float(i_v / (d * math.cos(math.radians(v))))
+
+
 class Factors(eqx.Module):
     """The factor arrays of a scenario set on one wavelength grid.
 
@@ -123,8 +366,15 @@ class Factors(eqx.Module):
       (a, m, w) [W m⁻² nm⁻¹]
     - `path`: moonlight path radiance, or None. (a, m, w) [W m⁻² sr⁻¹ nm⁻¹]
     - `illuminance_lx`: class illuminances. (c,) [lx]
-    - `uplight`: `u / (1 - u) / π`, or None. [sr⁻¹]
+    - `uplight`: `f_up = i(θv) / (d cos θv)` (or `u / (1 - u) / π`), or None.
+      [sr⁻¹]
     - `fire`: `f_fire ε B(T)`, or None. (f, w) [W m⁻² sr⁻¹ nm⁻¹]
+    - `t_dir`: upward direct transmittance, or None for a uniform
+      neighbourhood (then `t_up` alone applies). (a, w) [1]
+    - `neighbour_lamp`: `k`, the neighbourhood's lamp light relative to the
+      pixel's (lit fraction x relative illuminance); used with `t_dir`. () [1]
+    - `background`: reflectance of the neighbourhood's ground, or None for the
+      pixel's own surface. (w,) [1]
     """
 
     wavelength_nm: Float[Array, " w"]
@@ -136,6 +386,9 @@ class Factors(eqx.Module):
     illuminance_lx: Float[Array, " c"]
     uplight: float | None = eqx.field(static=True)
     fire: Float[Array, "f w"] | None
+    t_dir: Float[Array, "a w"] | None = None
+    neighbour_lamp: Float[Array, ""] | None = None
+    background: Float[Array, " w"] | None = None
 
     def crop(self, lower_nm: float, upper_nm: float) -> "Factors":
         """The same factors on the grid samples inside [lower_nm, upper_nm] (a
@@ -158,18 +411,36 @@ class Factors(eqx.Module):
             self.illuminance_lx,
             self.uplight,
             cut(self.fire),
+            cut(self.t_dir),
+            self.neighbour_lamp,
+            cut(self.background),
         )
+
+    def emission_transmittance(self) -> Float[Array, "a w"]:
+        """Transmittance of light emitted in the pixel (uplight, fire; and lamp
+        light reflected by a neighbourhood of the pixel's own surface):
+        `t_up` for a uniform neighbourhood, else `t_dir + k (t_up - t_dir)`. [1]"""
+        if self.t_dir is None:
+            return self.t_up
+        return self.t_dir + self.neighbour_lamp * (self.t_up - self.t_dir)
 
 
 class BandTerms(eqx.Module):
     """Band radiance of each term, contracted over wavelength. [W m⁻² sr⁻¹ nm⁻¹]
     (band-averaged) or [W m⁻² sr⁻¹] (band-integrated)
 
-    - `lamp_surface`: `T_up ρ/π S_l` per lux. (l, s, a, b)
-    - `uplight`: `T_up u/(1-u)/π S_l` per lux, or None. (l, a, b)
-    - `moon`: `T_up ρ/π T_down E_moon cos θ`, or None. (s, a, m, b)
+    With a uniform neighbourhood `T = T_up`; otherwise `T_e = T_dir + k T_dif`
+    (`Factors.emission_transmittance`) and, with a background surface ρ_n,
+    the ground terms split into the pixel's direct and the neighbourhood's
+    diffuse part (module docstring).
+
+    - `lamp_surface`: `T_e ρ/π S_l` (or `T_dir ρ/π S_l + k T_dif ρ_n/π S_l`)
+      per lux. (l, s, a, b)
+    - `uplight`: `T_e f_up S_l` per lux, or None. (l, a, b)
+    - `moon`: `T_up ρ/π T_down E_moon cos θ` (or `(T_dir ρ + T_dif ρ_n)/π ...`),
+      or None. (s, a, m, b)
     - `path`: moonlight path radiance, or None. (a, m, b)
-    - `fire`: `T_up f ε B`, or None. (f, a, b)
+    - `fire`: `T_e f ε B`, or None. (f, a, b)
     - `illuminance_lx`: (c,) [lx]
     """
 
@@ -208,32 +479,48 @@ def band_terms(factors: Factors, weights: Float[Array, "b w"]) -> BandTerms:
     """Contract every term over wavelength with band weights (from `band_weights`)."""
     f = factors
     tw = f.t_up[:, None, :] * weights[None, :, :]  # (a, b, w)
-    lamp_surface = jnp.einsum(
-        "lw,sw,abw->lsab", f.lamp, f.reflectance / math.pi, tw, precision=_HI
+    # lamp-driven terms: T_e = T_up (uniform) or T_dir + k T_dif
+    ew = (
+        tw
+        if f.t_dir is None
+        else f.emission_transmittance()[:, None, :] * weights[None, :, :]
     )
+    rho = f.reflectance / math.pi
+    split = f.t_dir is not None and f.background is not None
+    if split:  # own ground direct, the neighbourhood's ground diffuse
+        dw = f.t_dir[:, None, :] * weights[None, :, :]
+        fw = tw - dw  # T_dif
+        rho_n = f.background / math.pi
+        lamp_surface = (
+            jnp.einsum("lw,sw,abw->lsab", f.lamp, rho, dw, precision=_HI)
+            + f.neighbour_lamp
+            * jnp.einsum("lw,w,abw->lab", f.lamp, rho_n, fw, precision=_HI)[:, None]
+        )
+    else:
+        lamp_surface = jnp.einsum("lw,sw,abw->lsab", f.lamp, rho, ew, precision=_HI)
     uplight = (
         None
         if f.uplight is None
-        else f.uplight * jnp.einsum("lw,abw->lab", f.lamp, tw, precision=_HI)
+        else f.uplight * jnp.einsum("lw,abw->lab", f.lamp, ew, precision=_HI)
     )
-    moon = (
-        None
-        if f.moon_ground is None
-        else jnp.einsum(
-            "sw,amw,abw->samb",
-            f.reflectance / math.pi,
-            f.moon_ground,
-            tw,
-            precision=_HI,
-        )
-    )
+    moon = None
+    if f.moon_ground is not None:
+        if split:
+            moon = (
+                jnp.einsum("sw,amw,abw->samb", rho, f.moon_ground, dw, precision=_HI)
+                + jnp.einsum("w,amw,abw->amb", rho_n, f.moon_ground, fw, precision=_HI)[
+                    None
+                ]
+            )
+        else:  # the whole neighbourhood is moonlit: T_dir + T_dif = T_up
+            moon = jnp.einsum("sw,amw,abw->samb", rho, f.moon_ground, tw, precision=_HI)
     path = (
         None
         if f.path is None
         else jnp.einsum("amw,bw->amb", f.path, weights, precision=_HI)
     )
     fire = (
-        None if f.fire is None else jnp.einsum("fw,abw->fab", f.fire, tw, precision=_HI)
+        None if f.fire is None else jnp.einsum("fw,abw->fab", f.fire, ew, precision=_HI)
     )
     return BandTerms(lamp_surface, uplight, moon, path, fire, f.illuminance_lx)
 
@@ -317,6 +604,9 @@ class ScenarioSet:
                 f.illuminance_lx,
                 f.uplight,
                 f.fire,
+                f.t_dir,
+                f.neighbour_lamp,
+                f.background,
             ),
             lamp_ids=tuple(self.lamp_ids[i] for i in idx),
         )
@@ -341,11 +631,34 @@ DEFAULT_ATMOSPHERES = (
 DEFAULT_MOONS = (None, "full", "first_quarter")
 
 
+MixSpec = tuple[str, str, float]
+"""A mixed pixel: (a, b, fraction of a); the rest, 1 - fraction, is b."""
+
+
+def _check_mix(entry, what: str) -> MixSpec:
+    if not (isinstance(entry, Sequence) and len(entry) == 3):
+        raise ValueError(f"A mixed {what} must be (a, b, fraction), got {entry!r}.")
+    a, b, frac = entry
+    if not (isinstance(a, str) and isinstance(b, str)):
+        raise ValueError(f"A mixed {what} names two {what}s, got {entry!r}.")
+    frac = float(frac)
+    if not 0.0 <= frac <= 1.0:
+        raise ValueError(
+            f"The fraction of a mixed {what} must lie in [0, 1], got {entry!r}."
+        )
+    return a, b, frac
+
+
+def mix_label(a: str, b: str, fraction: float) -> str:
+    """Label of a mixed lamp or surface: ``"a+b@fraction"`` (fraction of a)."""
+    return f"{a}+{b}@{fraction:g}"
+
+
 def build_scenarios(
     *,
-    lamps: Sequence[str] | None = None,
+    lamps: Sequence[str | tuple] | None = None,
     scored_only: bool = False,
-    surfaces: Sequence[str] = DEFAULT_SURFACES,
+    surfaces: Sequence[str | tuple] = DEFAULT_SURFACES,
     surface_samples: int | None = None,
     atmospheres: Sequence[tuple[str, str, float] | str] = DEFAULT_ATMOSPHERES,
     moons: Sequence[str | None] = DEFAULT_MOONS,
@@ -354,6 +667,8 @@ def build_scenarios(
     q0_per_sr: float = Q0_DRY_R3_PER_SR,
     view_zenith_deg: float = 0.0,
     uplight_ratio: float = 0.0,
+    uplight_model: str = "profile",
+    neighbourhood: str | Neighbourhood = DEFAULT_NEIGHBOURHOOD,
     fire_temperatures_k: Sequence[float] = (),
     fire_fraction: float = 0.01,
     fire_emissivity: float = 0.9,
@@ -364,16 +679,28 @@ def build_scenarios(
     """Build a scenario set. Any factor may be a subset.
 
     - `lamps`: library ids (default: every measured lamp, or only scored ones
-      with `scored_only`).
+      with `scored_only`); an entry ``(a, b, f)`` is a pixel lit by lamp `a`
+      for a fraction `f` of its illuminance and by `b` for the rest (id
+      ``"a+b@f"``, not a library lamp).
     - `surfaces`: surface types; each contributes its mean reflectance, or
-      `surface_samples` measured spectra drawn with `seed`.
+      `surface_samples` measured spectra drawn with `seed`; an entry
+      ``(a, b, f)`` is a pixel covered by `a` over a fraction `f` of its area
+      and `b` over the rest (label ``"a+b@f"``; with `surface_samples`, the
+      k-th draws of a and b are mixed).
     - `atmospheres`: (atmosphere, aerosol, visibility_km) triples of the 6S
       tables, or `"none"` for no atmosphere (T = 1, no path radiance).
     - `moons`: named phases (`bandopt.datasets.moon.NAMED_PHASES`) at
       `moon_zenith_deg`, or None for a moonless night. An empty tuple drops
       the Moon terms entirely.
     - `classes`: EN 13201 classes; M classes use `q0_per_sr`.
-    - `uplight_ratio`: upward light output ratio u of the luminaires (0-0.5).
+    - `uplight_ratio`: nominal upward light output ratio of the luminaires
+      (0-0.5); `uplight_model` ``"profile"`` (measured profiles, default) or
+      ``"lambertian"`` (the old shortcut); see `uplight_factor`. With
+      `uplight_ratio > 0` the uplight term exists even where the profile sends
+      nothing towards the sensor (factor 0: the 1-5 % profiles at nadir).
+    - `neighbourhood`: what the diffuse upward transmittance sees, a name of
+      `NEIGHBOURHOODS` or a `Neighbourhood` (default `DEFAULT_NEIGHBOURHOOD`;
+      ``"uniform"`` is the total-transmittance model of earlier versions).
     - `fire_temperatures_k`: fire scenes (blackbody, `fire_fraction` of the pixel
       burning with `fire_emissivity`).
     """
@@ -381,14 +708,29 @@ def build_scenarios(
     from .datasets.lamps import library
 
     grid = np.asarray(wavelength_nm, float)
+    hood = resolve_neighbourhood(neighbourhood)
+    up_factor = uplight_factor(uplight_ratio, view_zenith_deg, uplight_model)
     lib = library(extend_nir=extend_nir, wavelength_nm=grid)
+    lamp_mixes = []
     if lamps is None:
         lib = lib.select(scored_only=scored_only)
         lamp_ids = tuple(lib.ids)
         lamp = lib.values
     else:
-        lamp_ids = tuple(lamps)
-        lamp = lib.values[[lib.index(i) for i in lamp_ids]]
+        ids, rows = [], []
+        for entry in lamps:
+            if isinstance(entry, str):
+                ids.append(entry)
+                rows.append(lib.values[lib.index(entry)])
+                continue
+            a, b, frac = _check_mix(entry, "lamp")
+            ids.append(mix_label(a, b, frac))
+            rows.append(
+                frac * lib.values[lib.index(a)] + (1 - frac) * lib.values[lib.index(b)]
+            )
+            lamp_mixes.append([a, b, frac])
+        lamp_ids = tuple(ids)
+        lamp = np.asarray(rows).reshape(len(ids), grid.size)
     if not np.all(np.isfinite(lamp)):
         bad = [lamp_ids[i] for i in np.flatnonzero(~np.isfinite(lamp).all(axis=1))]
         raise ValueError(
@@ -396,20 +738,30 @@ def build_scenarios(
             "(near-infrared extension off): crop the grid or switch the extension on."
         )
 
-    refl, surface_labels = [], []
-    for s in surfaces:
+    def reflectances(name: str) -> tuple[list[np.ndarray], list[str]]:
         if surface_samples is None:
-            ids, mean = surf_mod.mean_reflectance([s], grid)
-            refl.append(mean[0])
-            surface_labels.append(ids[0])
-        else:
-            draws = surf_mod.sample_reflectance(s, surface_samples, seed, grid)
-            refl.extend(draws)
-            name = surf_mod.resolve_surface(s)
-            surface_labels.extend(f"{name}#{k}" for k in range(surface_samples))
+            ids, mean = surf_mod.mean_reflectance([name], grid)
+            return [mean[0]], [ids[0]]
+        draws = surf_mod.sample_reflectance(name, surface_samples, seed, grid)
+        canon = surf_mod.resolve_surface(name)
+        return list(draws), [f"{canon}#{k}" for k in range(surface_samples)]
 
-    if not 0.0 <= uplight_ratio <= 0.5:
-        raise ValueError(f"uplight_ratio must lie in [0, 0.5], got {uplight_ratio!r}.")
+    refl, surface_labels, surface_mixes = [], [], []
+    for entry in surfaces:
+        if isinstance(entry, str):
+            r, lab = reflectances(entry)
+        else:
+            a, b, frac = _check_mix(entry, "surface")
+            (ra, la), (rb, lb) = reflectances(a), reflectances(b)
+            r = [frac * x + (1 - frac) * y for x, y in zip(ra, rb, strict=True)]
+            lab = [mix_label(x, y, frac) for x, y in zip(la, lb, strict=True)]
+            surface_mixes.append([a, b, frac])
+        refl.extend(r)
+        surface_labels.extend(lab)
+    background = None
+    if hood.surface is not None and not hood.is_uniform:
+        background = surf_mod.mean_reflectance([hood.surface], grid)[1][0]
+
     moon_states = []
     for m in moons:
         moon_states.append(
@@ -417,24 +769,26 @@ def build_scenarios(
         )
     has_moon = any(m is not None for m in moon_states)
 
-    t_up, moon_ground, path, atm_labels = [], [], [], []
+    t_up, t_dir, moon_ground, path, atm_labels = [], [], [], [], []
     for a in atmospheres:
         if isinstance(a, str) and a.lower() == NO_ATMOSPHERE:
             t_up.append(np.ones_like(grid))
+            t_dir.append(np.ones_like(grid))
             atm_labels.append(NO_ATMOSPHERE)
             spec = None
         else:
             spec = AtmosphereSpec(*a)
-            t_up.append(
-                atm_mod.transmittance(
-                    "up",
-                    spec.atmosphere,
-                    spec.aerosol,
-                    spec.visibility_km,
-                    view_zenith_deg,
-                    grid,
-                )
+            args = (
+                "up",
+                spec.atmosphere,
+                spec.aerosol,
+                spec.visibility_km,
+                view_zenith_deg,
+                grid,
             )
+            t_up.append(atm_mod.transmittance(*args))
+            if not hood.is_uniform:
+                t_dir.append(atm_mod.transmittance(*args, part="direct"))
             atm_labels.append(spec.label)
         mg, pa = [], []
         for m in moon_states:
@@ -491,18 +845,23 @@ def build_scenarios(
         illuminance_lx=jnp.asarray(
             [class_illuminance_lx(c, q0_per_sr=q0_per_sr) for c in classes]
         ),
-        uplight=(uplight_ratio / (1 - uplight_ratio) / math.pi)
-        if uplight_ratio > 0
-        else None,
+        # kept when asked for, even at 0 (a 5 % profile seen at nadir)
+        uplight=up_factor if uplight_ratio > 0 else None,
         fire=fire,
+        t_dir=None if hood.is_uniform else jnp.asarray(np.asarray(t_dir)),
+        neighbour_lamp=None if hood.is_uniform else jnp.asarray(hood.lamp_factor),
+        background=None if background is None else jnp.asarray(background),
     )
     moon_labels = tuple(
         "none" if m is None else f"{m.name}@{m.zenith_deg:g}deg" for m in moon_states
     )
     config = {
-        "lamps": "all" if lamps is None else list(lamps),
+        "physics_version": PHYSICS_VERSION,
+        "lamps": "all"
+        if lamps is None
+        else [e if isinstance(e, str) else list(e) for e in lamps],
         "scored_only": scored_only,
-        "surfaces": list(surfaces),
+        "surfaces": [e if isinstance(e, str) else list(e) for e in surfaces],
         "surface_samples": surface_samples,
         "atmospheres": [a if isinstance(a, str) else list(a) for a in atmospheres],
         "moons": list(moons),
@@ -511,6 +870,11 @@ def build_scenarios(
         "q0_per_sr": q0_per_sr,
         "view_zenith_deg": view_zenith_deg,
         "uplight_ratio": uplight_ratio,
+        "uplight_model": _canon(uplight_model),
+        "uplight_factor_per_sr": up_factor,
+        "neighbourhood": hood.to_dict(),
+        "lamp_mixtures": lamp_mixes,
+        "surface_mixtures": surface_mixes,
         "fire_temperatures_k": list(fire_temperatures_k),
         "fire_fraction": fire_fraction,
         "fire_emissivity": fire_emissivity,
@@ -533,16 +897,25 @@ def build_scenarios(
 def full_toa_radiance(
     factors: Factors, l: int, s: int, a: int, m: int | None, c: int
 ) -> Float[Array, " w"]:
-    """Spectral TOA radiance of one scenario, evaluated term by term (the
-    reference the contraction is tested against). [W m⁻² sr⁻¹ nm⁻¹]"""
+    """Spectral TOA radiance of one scenario, evaluated term by term from the
+    pixel's and the neighbourhood's radiance (module docstring; the reference
+    the contraction is tested against). [W m⁻² sr⁻¹ nm⁻¹]"""
     f = factors
-    ground = f.illuminance_lx[c] * f.lamp[l]
-    if m is not None and f.moon_ground is not None:
-        ground = ground + f.moon_ground[a, m]
-    inner = f.reflectance[s] / math.pi * ground
-    if f.uplight is not None:
-        inner = inner + f.uplight * f.illuminance_lx[c] * f.lamp[l]
-    out = f.t_up[a] * inner
+    lamp_ground = f.illuminance_lx[c] * f.lamp[l]
+    moon_ground = (
+        f.moon_ground[a, m]
+        if m is not None and f.moon_ground is not None
+        else jnp.zeros_like(lamp_ground)
+    )
+    up = 0.0 if f.uplight is None else f.uplight * lamp_ground
+    pixel = f.reflectance[s] / math.pi * (lamp_ground + moon_ground) + up
+    if f.t_dir is None:  # uniform neighbourhood: it looks like the pixel
+        out = f.t_up[a] * pixel
+    else:
+        k = f.neighbour_lamp
+        rho_n = f.reflectance[s] if f.background is None else f.background
+        hood = rho_n / math.pi * (k * lamp_ground + moon_ground) + k * up
+        out = f.t_dir[a] * pixel + (f.t_up[a] - f.t_dir[a]) * hood
     if m is not None and f.path is not None:
         out = out + f.path[a, m]
     return out

@@ -136,6 +136,103 @@ def test_shapes_and_default_grid():
     assert atm.path_reflectance(*MLS_URBAN_23, 20.0).shape == GRID_1NM.shape
 
 
+# ------------------------------------------------------------------ direct / diffuse
+with np.load(atm.DATA_DIR / "sixs_tables.npz") as _f:
+    _HAS_DIRECT = "t_scat_direct" in _f.files
+needs_direct = pytest.mark.skipif(
+    not _HAS_DIRECT,
+    reason="shipped 6S tables predate the direct transmittance: make atmospheres",
+)
+
+
+@needs_direct
+@pytest.mark.parametrize(("atmosphere", "aerosol", "vis"), atm.atmosphere_ids())
+def test_direct_at_most_total(atmosphere, aerosol, vis):
+    z = np.array([0.0, 10.0, 30.0, 45.0, 60.0, 75.0])
+    total = t_up(atmosphere, aerosol, vis, z)
+    direct = atm.transmittance("up", atmosphere, aerosol, vis, z, GRID, part="direct")
+    diffuse = atm.transmittance(
+        "down", atmosphere, aerosol, vis, z, GRID, part="Diffuse"
+    )
+    assert np.all(direct > 0) and np.all(direct <= total)
+    np.testing.assert_allclose(direct + diffuse, total, rtol=1e-12)
+    # more scattering out of the beam at longer paths and shorter wavelengths
+    assert np.all(np.diff(direct / total, axis=0) < 0)
+    cont = (GRID >= 400) & (GRID <= 700)
+    assert np.all(np.diff((direct / total)[:, cont], axis=1) > -1e-6)
+
+
+@needs_direct
+@pytest.mark.parametrize(
+    ("case", "expected"),
+    [
+        # issue 11, defect 3: an independent 6S run, printed to 2 decimals
+        (MLS_URBAN_23, (1.33, 1.20, 1.09)),
+        (("tropical", "urban", 5.0), (1.91, 1.61, 1.29)),
+    ],
+)
+def test_total_over_direct_matches_independent_6s_run(case, expected):
+    wl = np.array([450.0, 550.0, 800.0])
+    ratio = atm.transmittance("up", *case, 0.0, wl) / atm.transmittance(
+        "up", *case, 0.0, wl, part="direct"
+    )
+    np.testing.assert_allclose(ratio, expected, atol=0.006)  # rounding + float32
+
+
+@needs_direct
+def test_direct_is_beer_lambert_with_6s_optical_depth():
+    wl = np.array([400.0, 550.0, 760.0, 940.0])
+    tau_r, tau_a = atm.optical_depth(*MLS_URBAN_23, wl)
+    with np.load(atm.DATA_DIR / "sixs_tables.npz") as f:
+        zt = f["zenith_deg"]
+        t_gas = f["t_gas"][0, 0, 2][:, np.isin(f["wavelength_nm"], wl)]
+    direct = atm.transmittance("up", *MLS_URBAN_23, zt, wl, part="direct")
+    mu = np.cos(np.deg2rad(zt))[:, None]
+    np.testing.assert_allclose(direct, t_gas * np.exp(-(tau_r + tau_a) / mu), rtol=2e-6)
+    # between table angles, exact too (ln T linear in air mass)
+    z = 50.0
+    got = atm.transmittance("up", *MLS_URBAN_23, z, wl, part="direct")
+    scat = np.exp(-(tau_r + tau_a) / np.cos(np.deg2rad(z)))
+    lg = np.log(t_gas[3:5])  # 45° and 55° nodes
+    m = 1 / np.cos(np.deg2rad([45.0, 55.0, z]))
+    w = (m[2] - m[0]) / (m[1] - m[0])
+    np.testing.assert_allclose(
+        got, np.exp((1 - w) * lg[0] + w * lg[1]) * scat, rtol=2e-6
+    )
+
+
+@needs_direct
+def test_optical_depths_are_physical():
+    wl = np.array([450.0, 550.0, 800.0])
+    tau_r, tau_a = atm.optical_depth(*MLS_URBAN_23, wl)
+    # Rayleigh optical depth at sea level, Hansen & Travis (1974) Eq. 2.29:
+    # 0.008569 λ^-4 (1 + 0.0113 λ^-2 + 0.00013 λ^-4), λ in µm; 6S differs by ~1 %
+    lam = wl / 1000.0
+    ht = 0.008569 * lam**-4 * (1 + 0.0113 * lam**-2 + 0.00013 * lam**-4)
+    np.testing.assert_allclose(tau_r, ht, rtol=0.02)
+    # aerosol optical depth at 550 nm is the AOT550 6S derived from visibility
+    aot = atm.table_info()["aot550"]["midlatitude_summer/urban/23km"]
+    assert tau_a[1] == pytest.approx(aot, rel=2e-3)
+    assert tau_a[0] > tau_a[1] > tau_a[2]  # Angstrom exponent > 0
+    for a in atm.ATMOSPHERES:  # same column of air and aerosol in every profile
+        r, _ = atm.optical_depth(a, "urban", 23.0, wl)
+        np.testing.assert_allclose(r, tau_r, rtol=0.02)
+
+
+@needs_direct
+def test_direct_checked_against_6s_pixel_and_background_radiance():
+    chk = atm.table_info()["direct_transmittance_check"]
+    assert chk["n_compared"] > 10_000
+    # 6S prints the radiances to 3 decimals: relative rounding up to a few 1e-4
+    assert chk["median_rel_diff"] < 5e-4 and chk["p99_rel_diff"] < 5e-3
+    assert chk["max_abs_tau_difference_across_zenith"] == 0.0
+
+
+def test_unknown_part():
+    with pytest.raises(ValueError, match=r"`part` 'scattered'.*'direct'"):
+        atm.transmittance("up", *MLS_URBAN_23, 0.0, [550.0], part="scattered")
+
+
 # ------------------------------------------------------------------ path radiance
 def test_path_radiance_scales_lunar_irradiance():
     wl = np.linspace(400.0, 900.0, 51)
@@ -294,6 +391,17 @@ def test_6s_run_matches_table():
         assert row["t_gas_up"] * row["t_scat_up"] == pytest.approx(t, abs=2e-5)
         rho = atm.path_reflectance("tropical", "continental", 10.0, 45.0, 0.0, [w])[0]
         assert row["rho_path"] == pytest.approx(rho, rel=1e-5)
+        # direct part: Beer-Lambert with 6S's optical depth, and 6S's own
+        # pixel/background split (3 printed decimals)
+        td = atm.transmittance(
+            "up", "tropical", "continental", 10.0, 45.0, [w], part="direct"
+        )[0]
+        tau = row["tau_rayleigh"] + row["tau_aerosol"]
+        direct = row["t_gas_up"] * np.exp(-tau / np.cos(np.deg2rad(45.0)))
+        assert direct == pytest.approx(td, rel=1e-5)
+        dif = row["t_gas_up"] * row["t_scat_up"] - direct
+        ratio = row["pixel_radiance"] / row["background_radiance"]
+        assert ratio == pytest.approx(direct / dif, rel=5e-3)
     # the downward path really is at the Moon's zenith: Moon at 45°, nadir view
     s = make_sixs("tropical", "continental", 10.0, sun_zenith_deg=45.0)
     for w in (550.0, 760.0):

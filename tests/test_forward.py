@@ -203,3 +203,37 @@ def test_zero_responsivity_band_reads_zero_with_finite_gradient():
         return jnp.sum(radiance_from_response(spectra, wl, r, z))
 
     assert np.all(np.isfinite(np.asarray(jax.grad(f)(resp))))
+
+
+def test_simulate_cli_uplight_model_and_neighbourhood(tmp_path):
+    """The CLI passes the uplight model and the neighbourhood to the scene:
+    without an atmosphere, the only difference is the uplight factor."""
+    from bandopt.scene import uplight_factor
+
+    common = [
+        "simulate",
+        "--bands",
+        "sdgsat-1",
+        "--lamps",
+        "nist_traditional_hps",
+        "--surfaces",
+        "asphalt",
+        "--atmospheres",
+        "none",
+        "--moon",
+        "none",
+        "--classes",
+        "P1",
+        "--uplight",
+        "0.5",
+        "--neighbourhood",
+        "uniform",
+    ]
+    frames = {}
+    for model in ("profile", "lambertian"):
+        out = tmp_path / f"{model}.csv"
+        assert main([*common, "--uplight-model", model, "--out", str(out)]) == 0
+        frames[model] = pd.read_csv(out).filter(like="L_").to_numpy()
+    # uplight 1/(2π) (isotropic 50 % profile) against 1/π (Lambertian u/(1-u))
+    assert uplight_factor(0.5) < uplight_factor(0.5, model="lambertian")
+    assert np.all(frames["profile"] < frames["lambertian"])

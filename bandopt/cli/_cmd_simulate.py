@@ -48,6 +48,20 @@ def register(subparsers):
         help="upward light output ratio 0-0.5 (default 0)",
     )
     p.add_argument(
+        "--uplight-model",
+        default="profile",
+        choices=("profile", "lambertian"),
+        help="uplight towards the sensor from the measured luminaire profiles "
+        "(default) or the old Lambertian u/(1-u) shortcut",
+    )
+    p.add_argument(
+        "--neighbourhood",
+        default=None,
+        metavar="NAME",
+        help="what the diffuse upward transmittance sees: uniform (coarse pixels, "
+        "total transmittance), lit_street_dark_district (default) or isolated",
+    )
+    p.add_argument(
         "--noise", action="store_true", help="add photon noise (Table 2.3 sensor)"
     )
     p.add_argument(
@@ -86,6 +100,7 @@ def run(args) -> int:
     from ..scene import (
         DEFAULT_ATMOSPHERES,
         DEFAULT_CLASSES,
+        DEFAULT_NEIGHBOURHOOD,
         DEFAULT_SURFACES,
         build_scenarios,
     )
@@ -114,6 +129,8 @@ def run(args) -> int:
         moon_zenith_deg=args.moon_zenith,
         classes=args.classes or DEFAULT_CLASSES,
         uplight_ratio=args.uplight,
+        uplight_model=args.uplight_model,
+        neighbourhood=args.neighbourhood or DEFAULT_NEIGHBOURHOOD,
     )
     params = SensorParams.for_gsd(args.gsd) if args.gsd else SensorParams()
     limits = None

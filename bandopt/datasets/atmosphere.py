@@ -11,6 +11,15 @@ atmospheres x 3 aerosol models x 3 visibilities, zenith angles 0-75°.
   zenith (``"up"``) or top of atmosphere to surface at the Moon's zenith
   (``"down"``). The two are reciprocal (6S gives equal values; the check is
   recorded in `table_info()["reciprocity_check"]`), so one table serves both.
+  ``part="direct"`` gives the unscattered part only, gas x ``exp(-τ/cos θ)``
+  with 6S's column optical depth τ (Rayleigh + aerosol), and ``"diffuse"``
+  the rest (total - direct): 6S itself splits the signal at the sensor into a
+  pixel (direct) and a background (diffuse) part this way, which the build
+  checks (`table_info()["direct_transmittance_check"]`). A pixel much smaller
+  than the adjacency footprint (10-100 m against ~1 km) sees its own surface
+  through the direct part and its neighbourhood through the diffuse part
+  (`bandopt.scene`).
+- `optical_depth`: 6S's column optical depths, Rayleigh and aerosol.
 - `path_reflectance`: 6S's atmospheric intrinsic reflectance ρ_atm with the
   Moon as illuminant, so that ``L_path = ρ_atm · E_moon,TOA · cos θ_moon / π``
   (`path_radiance`).
@@ -165,6 +174,22 @@ def _log_t_gas(k: tuple[int, int, int], zenith_deg, argument: str) -> np.ndarray
     return (1 - w)[..., None] * lg[i] + w[..., None] * lg[i + 1]
 
 
+PARTS: tuple[str, ...] = ("total", "direct", "diffuse")
+"""Parts of the one-way transmittance `transmittance` returns."""
+
+
+def _scattering(k: tuple[int, int, int], part: str) -> np.ndarray:
+    t = _tables()
+    if part == "total":
+        return t["t_scat"][k]
+    if "t_scat_direct" not in t:
+        raise ValueError(
+            f"{_TABLE} has no direct transmittance (`t_scat_direct`, tables made "
+            "before 2026-11-25): regenerate them with `make atmospheres`."
+        )
+    return t["t_scat_direct"][k]
+
+
 def transmittance(
     direction: str,
     atmosphere: str,
@@ -172,8 +197,10 @@ def transmittance(
     visibility_km: float | int,
     zenith_deg: float | ArrayLike | Sequence[float],
     wavelength_nm: Float[ArrayLike, " w"] | Sequence[float] = GRID_1NM,
+    *,
+    part: str = "total",
 ) -> Float[np.ndarray, "*batch w"]:
-    """One-way total transmittance (gas x scattering, direct + diffuse). [1]
+    """One-way transmittance, gas x scattering (Rayleigh + aerosol). [1]
 
     **Arguments:**
 
@@ -183,20 +210,54 @@ def transmittance(
     - `visibility_km`: one of `VISIBILITIES_KM`. [km]
     - `zenith_deg`: zenith angle(s) of the path, 0-75; any shape `*batch`. [deg]
     - `wavelength_nm`: output grid within 350-1100 nm. [nm]
+    - `part`: ``"total"`` (direct + diffuse, the default), ``"direct"``
+      (unscattered: gas x ``exp(-τ/cos θ)``) or ``"diffuse"`` (total - direct).
 
-    `ln T` is linear in air mass between table angles, then T linear in wavelength.
+    `ln T` is linear in air mass between table angles (exact for the direct
+    part, Beer-Lambert), then T linear in wavelength; the diffuse part is the
+    difference of the two interpolated parts.
     """
     if _canon(direction) not in ("up", "down"):
         raise ValueError(
             f"Unknown `direction` {direction!r}; expected one of ['down', 'up']."
         )
+    key = _canon(part)
+    if key not in PARTS:
+        raise ValueError(f"Unknown `part` {part!r}; expected one of {list(PARTS)}.")
+    if key == "diffuse":
+        args = (direction, atmosphere, aerosol, visibility_km, zenith_deg)
+        total = transmittance(*args, wavelength_nm)
+        return total - transmittance(*args, wavelength_nm, part="direct")
     k = _combo(atmosphere, aerosol, visibility_km)
     wl = _wavelengths(wavelength_nm)
     t = _tables()
     i, w = _angle_weights(zenith_deg, t["zenith_deg"], "zenith_deg")
-    lt = np.log(t["t_gas"][k] * t["t_scat"][k])
+    lt = np.log(t["t_gas"][k] * _scattering(k, key))
     rows = np.exp((1 - w)[..., None] * lt[i] + w[..., None] * lt[i + 1])
     return _interp_wavelength(rows, t["wavelength_nm"], wl)
+
+
+def optical_depth(
+    atmosphere: str,
+    aerosol: str,
+    visibility_km: float | int,
+    wavelength_nm: Float[ArrayLike, " w"] | Sequence[float] = GRID_1NM,
+) -> tuple[Float[np.ndarray, " w"], Float[np.ndarray, " w"]]:
+    """6S's column optical depths (Rayleigh, aerosol) at nadir, linear in
+    wavelength. [1]"""
+    k = _combo(atmosphere, aerosol, visibility_km)
+    wl = _wavelengths(wavelength_nm)
+    t = _tables()
+    if "tau_rayleigh" not in t:
+        raise ValueError(
+            f"{_TABLE} has no optical depths (tables made before 2026-11-25): "
+            "regenerate them with `make atmospheres`."
+        )
+    grid = t["wavelength_nm"]
+    return (
+        np.interp(wl, grid, t["tau_rayleigh"][k]),
+        np.interp(wl, grid, t["tau_aerosol"][k]),
+    )
 
 
 def _offnadir_factor(
