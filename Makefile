@@ -7,9 +7,9 @@ export JAX_PLATFORMS ?= cpu
 export MPLBACKEND ?= Agg
 SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: run test test-slow lint bench atmospheres surfaces library ler g cct sweep \
-        compare classify radiometry spatial noise-aware estimate report check-report \
-        docs tutorial clean
+.PHONY: run test test-slow lint bench atmospheres surfaces library lamp-models ler \
+        g cct sweep compare classify radiometry spatial noise-aware estimate report \
+        check-report docs tutorial clean
 
 $(STAMP): pyproject.toml requirements.lock
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
@@ -49,6 +49,9 @@ library: $(STAMP)
 	mkdir -p results/library
 	$(BIN)/bandopt library --plot results/library/lamps.png --json > results/library/library.json
 	$(BIN)/bandopt library --counts --json > results/library/counts.json
+
+lamp-models: $(STAMP)  ## physical lamp models: fits + leave-one-lamp-out validation (~1 h)
+	$(BIN)/python -m experiments.lamp_models
 
 ler: $(STAMP)
 	$(BIN)/python -m experiments.search ler
