@@ -32,9 +32,9 @@ with, per term:
   ``"lit_street_dark_district"`` (k = 0.1, the pixel's surface) is a lit
   street at the ~10 m GSD this project recommends in a dark district;
   ``"uniform"`` reproduces the total-transmittance model exactly. The default
-  is `DEFAULT_NEIGHBOURHOOD` (for now ``"uniform"``: the shipped 6S tables
-  predate the direct transmittance; it becomes ``"lit_street_dark_district"``
-  with the regenerated tables).
+  (`DEFAULT_NEIGHBOURHOOD`) is still ``"uniform"`` so that existing callers
+  and results keep their numbers; a study at 10-100 m GSD should ask for a
+  stated neighbourhood (``neighbourhood="lit_street_dark_district"``).
 - `ρ(λ)`: Lambertian surface reflectance (`bandopt.datasets.surfaces`); a
   mixed pixel (`surfaces` entry ``(a, b, fraction)``) has the area-weighted
   mean reflectance.
@@ -236,8 +236,11 @@ and `uniform` a lot. `isolated`: nothing lit around the pixel (direct
 transmittance only for lamp light)."""
 
 DEFAULT_NEIGHBOURHOOD = "uniform"
-"""Neighbourhood of `build_scenarios` by default: ``"uniform"`` until the
-regenerated 6S tables (with the direct transmittance) are shipped."""
+"""Neighbourhood of `build_scenarios` by default: ``"uniform"``, the
+total-transmittance model of earlier versions, so that existing callers keep
+their numbers. It is right for coarse pixels (VIIRS, 750 m); at the 10-100 m
+GSD this project recommends it over-states lamp radiance by 9-91 % (6S
+total/direct, issue 11 defect 3): pass ``neighbourhood=`` explicitly there."""
 
 
 def resolve_neighbourhood(neighbourhood: "str | Neighbourhood") -> Neighbourhood:

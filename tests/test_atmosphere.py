@@ -137,15 +137,6 @@ def test_shapes_and_default_grid():
 
 
 # ------------------------------------------------------------------ direct / diffuse
-with np.load(atm.DATA_DIR / "sixs_tables.npz") as _f:
-    _HAS_DIRECT = "t_scat_direct" in _f.files
-needs_direct = pytest.mark.skipif(
-    not _HAS_DIRECT,
-    reason="shipped 6S tables predate the direct transmittance: make atmospheres",
-)
-
-
-@needs_direct
 @pytest.mark.parametrize(("atmosphere", "aerosol", "vis"), atm.atmosphere_ids())
 def test_direct_at_most_total(atmosphere, aerosol, vis):
     z = np.array([0.0, 10.0, 30.0, 45.0, 60.0, 75.0])
@@ -162,7 +153,6 @@ def test_direct_at_most_total(atmosphere, aerosol, vis):
     assert np.all(np.diff((direct / total)[:, cont], axis=1) > -1e-6)
 
 
-@needs_direct
 @pytest.mark.parametrize(
     ("case", "expected"),
     [
@@ -179,7 +169,6 @@ def test_total_over_direct_matches_independent_6s_run(case, expected):
     np.testing.assert_allclose(ratio, expected, atol=0.006)  # rounding + float32
 
 
-@needs_direct
 def test_direct_is_beer_lambert_with_6s_optical_depth():
     wl = np.array([400.0, 550.0, 760.0, 940.0])
     tau_r, tau_a = atm.optical_depth(*MLS_URBAN_23, wl)
@@ -201,7 +190,6 @@ def test_direct_is_beer_lambert_with_6s_optical_depth():
     )
 
 
-@needs_direct
 def test_optical_depths_are_physical():
     wl = np.array([450.0, 550.0, 800.0])
     tau_r, tau_a = atm.optical_depth(*MLS_URBAN_23, wl)
@@ -219,7 +207,6 @@ def test_optical_depths_are_physical():
         np.testing.assert_allclose(r, tau_r, rtol=0.02)
 
 
-@needs_direct
 def test_direct_checked_against_6s_pixel_and_background_radiance():
     chk = atm.table_info()["direct_transmittance_check"]
     assert chk["n_compared"] > 10_000

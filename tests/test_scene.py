@@ -31,14 +31,6 @@ LAMPS = (
 )
 
 
-with np.load(atm.DATA_DIR / "sixs_tables.npz") as _f:
-    _HAS_DIRECT = "t_scat_direct" in _f.files
-needs_direct = pytest.mark.skipif(
-    not _HAS_DIRECT,
-    reason="shipped 6S tables predate the direct transmittance: make atmospheres",
-)
-
-
 @pytest.fixture(scope="module")
 def scen():
     return build_scenarios(
@@ -49,6 +41,7 @@ def scen():
         classes=("P1", "M4", "C0"),
         uplight_ratio=0.1,
         fire_temperatures_k=(900.0,),
+        neighbourhood="lit_street_dark_district",  # the adjacency path
     )
 
 
@@ -81,9 +74,7 @@ def scen_background():
     )
 
 
-@pytest.mark.parametrize(
-    "name", ["scen", pytest.param("scen_background", marks=needs_direct)]
-)
+@pytest.mark.parametrize("name", ["scen", "scen_background"])
 def test_contraction_equals_term_by_term(name, request):
     scen = request.getfixturevalue(name)
     w = scen.factors.wavelength_nm
@@ -174,8 +165,7 @@ def test_uplight_term(scen):
     assert t.uplight.shape == (len(LAMPS), 2, 4)
     # its band radiance is f_up x the lamp seen through T_dir + k T_dif
     f = scen.factors
-    k = scene.resolve_neighbourhood(scene.DEFAULT_NEIGHBOURHOOD).lamp_factor
-    te = f.t_up if f.t_dir is None else f.t_dir + k * (f.t_up - f.t_dir)
+    te = f.t_dir + 0.1 * (f.t_up - f.t_dir)
     w = _weights(f.wavelength_nm)
     np.testing.assert_allclose(
         t.uplight, f.uplight * np.einsum("lw,aw,bw->lab", f.lamp, te, w), rtol=1e-12
@@ -265,7 +255,6 @@ def _lamp_set(neighbourhood, **kw):
     )
 
 
-@needs_direct
 def test_uniform_neighbourhood_reproduces_total_transmittance():
     uni = _lamp_set("uniform")
     assert uni.factors.t_dir is None
@@ -291,7 +280,6 @@ def test_uniform_neighbourhood_reproduces_total_transmittance():
     np.testing.assert_allclose(lamp_scenes(tu)[2, 1, 0, 0, 1], w @ spec, rtol=1e-12)
 
 
-@needs_direct
 def test_isolated_pixel_sees_direct_transmittance_only():
     iso = _lamp_set("isolated", moons=(None,))
     f = iso.factors
@@ -312,7 +300,6 @@ def test_isolated_pixel_sees_direct_transmittance_only():
     )
 
 
-@needs_direct
 def test_adjacency_is_linear_in_lit_fraction_and_bounded():
     w = None
     outs = []
@@ -332,16 +319,24 @@ def test_adjacency_is_linear_in_lit_fraction_and_bounded():
     np.testing.assert_allclose(lamp_scenes(band_terms(s.factors, w)), tenth, rtol=1e-12)
 
 
-@needs_direct
-def test_default_neighbourhood_is_the_dark_district():
+def test_default_neighbourhood_and_the_dark_district():
+    # the default stays the total-transmittance model (documented in
+    # DEFAULT_NEIGHBOURHOOD); the lit street in a dark district is asked for
     s = build_scenarios(lamps=LAMPS[:1], surfaces=("asphalt",), moons=())
-    hood = s.config["neighbourhood"]
-    assert hood["name"] == scene.DEFAULT_NEIGHBOURHOOD == "lit_street_dark_district"
+    assert scene.DEFAULT_NEIGHBOURHOOD == "uniform"
+    assert s.config["neighbourhood"]["name"] == "uniform"
+    assert s.factors.t_dir is None
+    d = build_scenarios(
+        lamps=LAMPS[:1],
+        surfaces=("asphalt",),
+        moons=(),
+        neighbourhood="lit_street_dark_district",
+    )
+    hood = d.config["neighbourhood"]
     assert hood["lit_fraction"] == 0.1 and hood["relative_illuminance"] == 1.0
-    assert float(s.factors.neighbour_lamp) == pytest.approx(0.1)
+    assert float(d.factors.neighbour_lamp) == pytest.approx(0.1)
 
 
-@needs_direct
 def test_background_surface_moonlight_and_lamp_light():
     """With a background surface the pixel's own ground is seen directly and the
     neighbourhood's through the diffuse part (moonlight over all of it, lamp
@@ -367,7 +362,6 @@ def test_background_surface_moonlight_and_lamp_light():
     np.testing.assert_allclose(got, w @ spec, rtol=1e-12)
 
 
-@needs_direct
 def test_gradient_with_respect_to_neighbourhood():
     s = _lamp_set("lit_street_dark_district", moons=(None,), uplight_ratio=0.2)
     f0 = s.factors
@@ -476,10 +470,7 @@ def test_uplight_off_nadir_and_between_profiles():
 
 
 # ------------------------------------------------------------------ mixed pixels
-@pytest.mark.parametrize(
-    "neighbourhood",
-    [pytest.param("lit_street_dark_district", marks=needs_direct), "uniform"],
-)
+@pytest.mark.parametrize("neighbourhood", ["lit_street_dark_district", "uniform"])
 def test_mixed_surfaces(neighbourhood):
     kw = dict(
         lamps=LAMPS,
