@@ -2,40 +2,137 @@
 
 Each command lives in its own module `bandopt/cli/_cmd_<name>.py` that defines
 `register(subparsers)`; the modules are discovered here, so adding a command
-touches no other file.
+touches no other file. Command modules import heavy packages (JAX, matplotlib,
+pandas) inside their functions, so `--help` and listings start quickly.
+
+Errors are one line on stderr, `bandopt COMMAND: error: ...`, naming the file
+or option and the problem: exit status 2 for bad input (`ValueError`, a
+missing input file), 1 for a file that cannot be written or memory that
+cannot be had, 141 for a closed output pipe (as a shell reports SIGPIPE),
+130 for Ctrl-C.
 """
 
 import argparse
 import importlib
+import os
 import pkgutil
 import sys
+
+
+EXIT_BAD_INPUT = 2
+EXIT_IO = 1
+EXIT_BROKEN_PIPE = 141
+EXIT_INTERRUPTED = 130
+
+
+def _version() -> str:
+    from .. import __version__
+
+    return __version__
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="bandopt",
         description="Band-selection optimisation for night-time multispectral sensors.",
+        epilog="`bandopt COMMAND --help` describes a command and its options.",
     )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    parser.add_argument(
+        "--version", action="version", version=f"bandopt {_version()}"
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     names = sorted(
         m.name for m in pkgutil.iter_modules(__path__) if m.name.startswith("_cmd_")
     )
     for name in names:
         importlib.import_module(f"{__name__}.{name}").register(sub)
+    for p in sub.choices.values():
+        _defaults_in_help(p)
     return parser
 
 
+def _defaults_in_help(parser: argparse.ArgumentParser) -> None:
+    """Append `(default: X)` to every option's help that does not state it."""
+    for a in parser._actions:
+        if a.help in (None, argparse.SUPPRESS) or a.option_strings == []:
+            continue
+        if isinstance(a, argparse._HelpAction | argparse._VersionAction):
+            continue
+        if "default" in a.help.lower():
+            continue
+        if isinstance(a, argparse._StoreTrueAction):
+            a.help += " (default: off)"
+        elif a.required:
+            a.help += " (required)"
+        elif a.default is None:
+            a.help += " (default: none)"
+        else:
+            d = a.default
+            d = " ".join(map(str, d)) if isinstance(d, list | tuple) else d
+            a.help += f" (default: {d})".replace("%", "%%")
+
+
+def _one_line(err: BaseException) -> str:
+    if isinstance(err, OSError) and err.filename is not None:
+        what = err.strerror or str(err)
+        return f"{err.filename}: {what}"
+    text = str(err) or type(err).__name__
+    return text
+
+
+def _report(command: str, message: str) -> None:
+    try:
+        print(f"bandopt {command}: error: {message}", file=sys.stderr, flush=True)
+    except OSError:
+        pass
+
+
+def _silence_stdout() -> None:
+    """After a broken pipe: point stdout at /dev/null so the interpreter's
+    final flush does not raise again (Python docs, "Note on SIGPIPE")."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser()
+    if not argv:
+        parser.print_help()
+        return 0
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 0
     from .._config import configure
 
     configure()
-    parser = build_parser()
-    args = parser.parse_args(argv)
     try:
-        return int(args.func(args) or 0)
+        rc = int(args.func(args) or 0)
+        sys.stdout.flush()
+        return rc
+    except BrokenPipeError:
+        _silence_stdout()
+        _report(args.command, "stdout: broken pipe (the reading process closed it)")
+        return EXIT_BROKEN_PIPE
+    except KeyboardInterrupt:
+        _report(args.command, "interrupted")
+        return EXIT_INTERRUPTED
     except (ValueError, FileNotFoundError) as err:
-        print(f"bandopt {args.command}: error: {err}", file=sys.stderr)
-        return 2
+        _report(args.command, _one_line(err))
+        return EXIT_BAD_INPUT
+    except OSError as err:
+        _report(args.command, _one_line(err))
+        return EXIT_IO
+    except MemoryError as err:
+        _report(
+            args.command,
+            f"out of memory ({_one_line(err)}); reduce the problem size",
+        )
+        return EXIT_IO
 
 
 if __name__ == "__main__":

@@ -1,7 +1,5 @@
 """`bandopt atmospheres`: the shipped 6S transmittance and path-reflectance tables."""
 
-import json
-
 
 SHOW_NM = (400.0, 450.0, 550.0, 650.0, 760.0, 865.0, 940.0, 1020.0)
 
@@ -120,13 +118,17 @@ def plot(path: str) -> None:
 
 def run(args) -> int:
     from ..datasets import atmosphere as atm
+    from ._output import atomic_path, prepare_file, print_json
 
+    if args.plot:
+        prepare_file(args.plot, "--plot")
     rows = summary_rows()
     info = atm.table_info()
     if args.plot:
-        plot(args.plot)
+        with atomic_path(args.plot) as tmp:
+            plot(tmp)
     if args.json:
-        print(json.dumps({"info": info, "rows": rows}, indent=1))
+        print_json({"info": info, "rows": rows}, indent=1)
         return 0
     v = info["versions"]
     print(

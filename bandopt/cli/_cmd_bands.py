@@ -1,6 +1,5 @@
 """`bandopt bands`: print a band set and draw its responses over lamp spectra."""
 
-import json
 import sys
 
 
@@ -166,17 +165,23 @@ def plot(bands, info: dict, path: str) -> None:
 def run(args) -> int:
     from ..sensor import export_response_csv
 
+    from ._output import atomic_path, prepare_file, print_json
+
+    for opt, path in (("--export-csv", args.export_csv), ("--plot", args.plot)):
+        if path:
+            prepare_file(path, opt)
     bands, entry = _load(args.source)
     info = summary(bands, entry)
     if args.json:
-        json.dump(info, sys.stdout, indent=2, ensure_ascii=False)
-        print()
+        print_json(info)
     else:
         _print_table(info)
     if args.export_csv:
-        export_response_csv(bands, args.export_csv)
+        with atomic_path(args.export_csv) as tmp:
+            export_response_csv(bands, tmp)
         print(f"wrote {args.export_csv}", file=sys.stderr)
     if args.plot:
-        plot(bands, info, args.plot)
+        with atomic_path(args.plot) as tmp:
+            plot(bands, info, tmp)
         print(f"wrote {args.plot}", file=sys.stderr)
     return 0

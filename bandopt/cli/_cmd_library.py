@@ -1,8 +1,5 @@
 """`bandopt library`: the lamp library with typology and photometry."""
 
-import json
-import sys
-
 
 def register(subparsers):
     p = subparsers.add_parser(
@@ -134,20 +131,20 @@ def _plot(lib, rows, path):
 
 
 def run(args) -> int:
-    from pathlib import Path
-
     from ..datasets.lamps import library
+    from ._output import atomic_path, prepare_file, print_json
 
+    if args.plot:
+        prepare_file(args.plot, "--plot")
     lib = library(extend_nir=not args.no_extension)
     rows = library_rows(lib)
     if args.plot:
-        Path(args.plot).parent.mkdir(parents=True, exist_ok=True)
-        _plot(lib, rows, args.plot)
+        with atomic_path(args.plot) as tmp:
+            _plot(lib, rows, tmp)
     counts = lib.counts()
     if args.json:
         out = {"counts": counts, "rules": RULES} if args.counts else rows
-        json.dump(out, sys.stdout, indent=2)
-        print()
+        print_json(out)
         return 0
     if args.counts:
         print(

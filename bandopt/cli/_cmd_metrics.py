@@ -1,8 +1,5 @@
 """`bandopt metrics`: photometry (LER, G, CCT, Duv) of user spectrum files."""
 
-import json
-import sys
-
 
 def register(subparsers):
     p = subparsers.add_parser(
@@ -41,7 +38,8 @@ def spectrum_metrics(loaded) -> dict:
     vis = (grid >= 380.0) & (grid <= 780.0)
     m = metrics(values[None, vis], grid[vis])
     full = float(np.asarray(ler(values[None], grid, denominator="full"))[0])
-    return {
+    visible_power = float(np.trapezoid(values[vis], grid[vis])) if vis.sum() > 1 else 0.0
+    row = {
         "file": loaded.path,
         "LER": float(m["LER"][0]),
         "LER_full_range": full,
@@ -51,21 +49,54 @@ def spectrum_metrics(loaded) -> dict:
         "Duv": float(m["Duv"][0]),
         "CCT_flag": bool(m["CCT_flag"][0]),
     }
+    if not visible_power > 0:  # G compares blue with V(λ)-weighted light: 0/0
+        row["G"] = float("nan")
+    return _null_reasons(row, visible_power)
+
+
+def _null_reasons(row: dict, visible_power: float) -> dict:
+    """Replace each non-finite value by None and say why in `null_reason`
+    (JSON has no NaN; a reader must not take a missing number for a result)."""
+    import math
+
+    why = (
+        "no light in 380-780 nm (visible power 0): undefined"
+        if not visible_power > 0
+        else "not defined for this spectrum (computation gave NaN)"
+    )
+    reasons = {}
+    for k, v in row.items():
+        if isinstance(v, float) and not math.isfinite(v):
+            row[k] = None
+            reasons[k] = why
+    if reasons:
+        row["null_reason"] = reasons
+    return row
 
 
 def run(args) -> int:
     from ..datasets.loaders import read_spectrum
 
+    from ._output import print_json
+
     rows = [spectrum_metrics(read_spectrum(f, unit=args.unit)) for f in args.files]
     if args.json:
-        json.dump(rows, sys.stdout, indent=2)
-        print()
+        print_json(rows)
         return 0
     print(f"{'file':<40}{'LER':>8}{'LER_full':>9}{'G':>7}{'CCT':>8}{'Duv':>8}  flags")
     for r in rows:
         flags = ",".join(k for k in ("G_flag", "CCT_flag") if r[k])
-        print(
-            f"{r['file'][-39:]:<40}{r['LER']:8.1f}{r['LER_full_range']:9.1f}"
-            f"{r['G']:7.2f}{r['CCT']:8.0f}{r['Duv']:8.4f}  {flags}"
+        cells = [
+            ("LER", 8, ".1f"),
+            ("LER_full_range", 9, ".1f"),
+            ("G", 7, ".2f"),
+            ("CCT", 8, ".0f"),
+            ("Duv", 8, ".4f"),
+        ]
+        text = "".join(
+            f"{'n/a':>{w}}" if r[k] is None else f"{r[k]:{w}{f}}" for k, w, f in cells
         )
+        print(f"{r['file'][-39:]:<40}{text}  {flags}")
+        for k, why in r.get("null_reason", {}).items():
+            print(f"  {k}: {why}")
     return 0

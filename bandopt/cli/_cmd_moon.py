@@ -214,19 +214,22 @@ def _plot(states, path: str) -> None:
 
 
 def run(args) -> int:
-    import json
+    from ._output import atomic_path, prepare_file, print_json
 
+    if args.plot:
+        prepare_file(args.plot, "--plot")
     states = _states(args)
     summaries = [_summary(s) for s in states]
     if args.json:
-        print(json.dumps(summaries[0] if len(summaries) == 1 else summaries, indent=2))
+        print_json(summaries[0] if len(summaries) == 1 else summaries)
     else:
         for k, s in enumerate(summaries):
             if k:
                 print()
             _print_text(s, args.lat, args.lon)
     if args.plot:
-        _plot(states, args.plot)
+        with atomic_path(args.plot) as tmp:
+            _plot(states, tmp)
         if not args.json:
             print(f"wrote {args.plot}")
     return 0

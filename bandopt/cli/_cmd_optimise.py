@@ -36,7 +36,7 @@ def register(subparsers):
         help="photon noise (thesis Table 2.3 sensor) at an EN 13201 class "
         "(e.g. P4) or a mean radiance [W m-2 sr-1 nm-1]",
     )
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="search and fold seed")
     p.add_argument(
         "--max-evals",
         type=int,
@@ -55,16 +55,69 @@ def register(subparsers):
         action="store_true",
         help="only the all-lamp search (no test errors; faster)",
     )
-    p.add_argument("--out", required=True, metavar="DIR")
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="output folder; a second run into the same folder is refused while "
+        "the first is running",
+    )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="recompute task files in DIR/tasks that are corrupt (else an error)",
+    )
+    p.add_argument(
+        "--json", action="store_true", help="print metrics.json on stdout"
+    )
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def check_task_files(tasks, out, *, force: bool, log) -> None:
+    """A task file that does not parse (a run killed while the disk was full,
+    an edited file) is named; with `force` it is removed and recomputed."""
     import json
-    import sys
-    from pathlib import Path
 
-    from ..provenance import write_manifest
+    from ..search._sweep import task_path
+
+    for t in tasks:
+        p = task_path(out, t)
+        if not p.is_file():
+            continue
+        try:
+            json.loads(p.read_text())
+        except (ValueError, UnicodeDecodeError) as err:
+            if not force:
+                raise ValueError(
+                    f"{p}: corrupt task file ({err}); rerun with --force to "
+                    "recompute it."
+                ) from None
+            p.unlink()
+            print(f"note: {p}: corrupt ({err}); recomputing (--force)", file=log)
+
+
+def run(args) -> int:
+    import sys
+
+    from ._output import OutputLock
+
+    if not 1 <= args.bands <= 12:
+        raise ValueError(f"--bands {args.bands}: expected 1-12 free bands.")
+    if args.max_evals < 1:
+        raise ValueError("--max-evals must be >= 1.")
+    if args.bands == 1 and not args.pan:
+        print(
+            "warning: one band without --pan has no band ratio; the estimate is the "
+            "training mean whatever the band.",
+            file=sys.stderr,
+        )
+    with OutputLock(args.out) as lock:
+        return _optimise(args, lock.directory)
+
+
+def _optimise(args, out) -> int:
+    import sys
+
     from ..search import (
         get_context,
         mae_ci,
@@ -74,18 +127,14 @@ def run(args) -> int:
         run_sweep,
     )
     from ..sensor import BandSet
+    from ._output import (
+        atomic_path,
+        atomic_write_json,
+        atomic_write_text,
+        print_json,
+        write_manifest,
+    )
 
-    if not 1 <= args.bands <= 12:
-        raise ValueError(f"--bands {args.bands}: expected 1-12 free bands.")
-    if args.max_evals < 1:
-        raise ValueError("--max-evals must be >= 1.")
-    if args.bands == 1 and not args.pan:
-        print(
-            "note: one band without --pan has no band ratio; the estimate is the "
-            "training mean whatever the band.",
-            file=sys.stderr,
-        )
-    out = Path(args.out)
     folds = ["final"] if args.no_folds else [0, 1, 2, "final"]
     tasks = [
         make_task(
@@ -100,6 +149,7 @@ def run(args) -> int:
         )
         for f in folds
     ]
+    check_task_files(tasks, out, force=args.force, log=sys.stderr)
     ctx = get_context(args.preset, args.noise, 0, "auto")  # validates --noise early
     res = run_sweep(tasks, out, workers=1, progress=print_progress)
     if any(r is None for r in res):
@@ -111,7 +161,6 @@ def run(args) -> int:
         upper_nm=final["bands"]["range_nm"][1],
         min_fwhm_nm=1.0,
     )
-    bands.to_json(out / "bands.json")
     metrics = {
         "target": args.target,
         "bands": final["bands"],
@@ -124,18 +173,21 @@ def run(args) -> int:
         err = [e for r in res[:3] for e in r["lamp_errors"]]
         metrics["test_mae"] = mae_ci(err, idx, ctx.table.classes)
         metrics["fold_bands"] = [r["bands"] for r in res[:3]]
-    (out / "metrics.json").write_text(
-        json.dumps(metrics, indent=2, default=float) + "\n"
-    )
-    plot_bands_over_lamps(bands, out / "bands.png")
+    # every top-level file is written whole or not at all (temporary + rename)
+    atomic_write_text(out / "bands.json", bands.to_json())
+    atomic_write_json(out / "metrics.json", metrics)
+    with atomic_path(out / "bands.png") as tmp:
+        plot_bands_over_lamps(bands, tmp)
     write_manifest(out, seed=args.seed, config={"tasks": tasks})
-    for b in final["bands"]["bands"]:
-        print(
-            f"{b['name']:>4s}  centre {b['centre_nm']:7.1f} nm  "
-            f"FWHM {b['fwhm_nm']:6.1f} nm"
-        )
-    if "test_mae" in metrics:
-        for m, v in metrics["test_mae"].items():
+    if args.json:
+        print_json(metrics)
+    else:
+        for b in final["bands"]["bands"]:
+            print(
+                f"{b['name']:>4s}  centre {b['centre_nm']:7.1f} nm  "
+                f"FWHM {b['fwhm_nm']:6.1f} nm"
+            )
+        for m, v in metrics.get("test_mae", {}).items():
             print(
                 f"test MAE {m}: {v['mae']:.4g} {v['unit']} "
                 f"(95 % CI {v['ci95'][0]:.4g}-{v['ci95'][1]:.4g})"

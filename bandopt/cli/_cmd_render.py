@@ -40,9 +40,14 @@ def register(subparsers):
         metavar="M",
         help="fine grid step in metres (default 0.25); GSDs must be multiples",
     )
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="noise seed")
     p.add_argument(
         "--no-noise", action="store_true", help="skip noise and quantisation"
+    )
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print summary.json on stdout (progress lines go to stderr)",
     )
     p.add_argument(
         "--mtf-nyquist",
@@ -66,16 +71,64 @@ def _bands(source: str):
     return load_band_set(source)
 
 
+def check_lamps_inside(layout) -> None:
+    """A lamp outside the rendered scene is a mistake in the layout, not a
+    result (it would score as a missed lamp): refuse it, naming the lamp."""
+    x_hi, y_half = layout.length_m, layout.width_m / 2
+    for i, p in enumerate(layout.lamps):
+        if not (0.0 <= p.x_m <= x_hi and -y_half <= p.y_m <= y_half):
+            raise ValueError(
+                f"layout {layout.name!r}: lamp {i + 1} ({p.lamp}) at x {p.x_m:g} m, "
+                f"y {p.y_m:g} m lies outside the scene (x 0-{x_hi:g} m, "
+                f"y {-y_half:g}-{y_half:g} m); move it or enlarge length_m/width_m."
+            )
+
+
+BYTES_PER_PIXEL_PER_IMAGE = 8
+"""float64 images; the renderer holds about `n_bands + 2 n_lamp_types + 4`
+images of the fine grid at once (illuminance and uplight per lamp type,
+band radiance, surface index, sums)."""
+
+
+def _available_bytes() -> int | None:
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
+
+
+def check_memory(layout, dx_m: float, n_bands: int) -> None:
+    """Refuse a fine grid whose images would not fit in the available memory
+    (half of /proc/meminfo MemAvailable), before allocating anything."""
+    nx = max(1, round(layout.length_m / dx_m))
+    ny = max(1, round(layout.width_m / dx_m))
+    n_types = len({p.lamp for p in layout.lamps})
+    need = nx * ny * BYTES_PER_PIXEL_PER_IMAGE * (n_bands + 2 * n_types + 4)
+    avail = _available_bytes()
+    limit = avail // 2 if avail else 8 * 2**30
+    if need > limit:
+        raise ValueError(
+            f"layout {layout.name!r}: {layout.length_m:g} m x {layout.width_m:g} m at "
+            f"--dx {dx_m:g} m is a {nx} x {ny} pixel grid needing about "
+            f"{need / 2**30:.3g} GiB (limit {limit / 2**30:.3g} GiB, half the "
+            "available memory); use a larger --dx or a smaller layout."
+        )
+
+
 def run(args) -> int:
-    import json
-    from pathlib import Path
+    import math
 
-    import numpy as np
+    from ..spatial import load_layout
+    from ._output import OutputLock
 
-    from ..provenance import write_manifest
-    from ..spatial import load_layout, observe, render, true_targets
-
+    if not (args.dx > 0 and math.isfinite(args.dx)):
+        raise ValueError(f"--dx {args.dx:g}: the fine grid step must be > 0 m.")
     layout = load_layout(args.layout)
+    check_lamps_inside(layout)
     bands = _bands(args.bands)
     atmosphere = None
     if args.atmosphere:
@@ -91,8 +144,20 @@ def run(args) -> int:
             raise ValueError(
                 f"--gsd {g:g}: must be a positive multiple of --dx {args.dx:g}"
             )
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    check_memory(layout, args.dx, len(bands.names))
+    with OutputLock(args.out) as lock:
+        return _render(args, layout, bands, atmosphere, lock.directory)
+
+
+def _render(args, layout, bands, atmosphere, out) -> int:
+    import sys
+
+    import numpy as np
+
+    from ..spatial import observe, render, true_targets
+    from ._output import atomic_path, atomic_write_json, print_json, write_manifest
+
+    log = sys.stderr if args.json else sys.stdout
     scene = render(layout, bands, dx_m=args.dx, atmosphere=atmosphere)
     truth = true_targets(scene)
     rows = []
@@ -107,8 +172,10 @@ def run(args) -> int:
             mtf_nyquist=args.mtf_nyquist,
         )
         stem = f"{layout.name}_gsd{g:g}m"
-        _write_tiff(out / f"{stem}.tif", obs.image, obs.grid)
-        _plot(out / f"{stem}.png", obs, truth, f"{layout.name}, GSD {g:g} m")
+        with atomic_path(out / f"{stem}.tif") as tmp:
+            _write_tiff(tmp, obs.image, obs.grid)
+        with atomic_path(out / f"{stem}.png") as tmp:
+            _plot(tmp, obs, truth, f"{layout.name}, GSD {g:g} m", scene.band_names)
         rows.append(
             {
                 "gsd_m": g,
@@ -122,7 +189,8 @@ def run(args) -> int:
         s = obs.score
         print(
             f"GSD {g:6g} m: precision {s.precision:.2f} recall {s.recall:.2f} "
-            f"F1 {s.f1:.2f} ({s.tp} of {len(truth)} lamps, {s.fp} false)"
+            f"F1 {s.f1:.2f} ({s.tp} of {len(truth)} lamps, {s.fp} false)",
+            file=log,
         )
     summary = {
         "layout": layout.describe(),
@@ -134,7 +202,7 @@ def run(args) -> int:
         "results": rows,
         "peak_radiance_w_m2_sr_nm": float(np.max(scene.radiance)),
     }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=str) + "\n")
+    atomic_write_json(out / "summary.json", summary)
     write_manifest(
         out,
         seed=args.seed,
@@ -148,7 +216,9 @@ def run(args) -> int:
             "atmosphere": atmosphere,
         },
     )
-    print(f"wrote {out}")
+    if args.json:
+        print_json(summary)
+    print(f"wrote {out}", file=log if not args.json else sys.stderr)
     return 0
 
 
@@ -169,27 +239,52 @@ def _write_tiff(path, image, grid):
     )
 
 
-def _plot(path, obs, truth, title):
+def _plot(path, obs, truth, title, band_names=()):
+    """The mean of the bands (the image shown) on a square-root colour scale
+    with its colour bar in radiance units, true lamps (o) and detections (+)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import numpy as np
+    from matplotlib.colors import PowerNorm
 
     g = obs.grid
     ext = (g.x0_m, g.x0_m + g.nx * g.dx_m, g.y0_m, g.y0_m + g.ny * g.dx_m)
-    fig, ax = plt.subplots(figsize=(10, 10 * g.ny / max(g.nx, 1) + 1.2))
+    fig, ax = plt.subplots(figsize=(11, 10 * g.ny / max(g.nx, 1) + 1.6))
     pan = obs.image.mean(axis=0)
-    ax.imshow(np.sqrt(np.maximum(pan, 0)), origin="lower", extent=ext, cmap="magma")
+    top = float(pan.max()) if float(pan.max()) > 0 else 1.0
+    im = ax.imshow(
+        pan,
+        origin="lower",
+        extent=ext,
+        cmap="magma",
+        norm=PowerNorm(0.5, vmin=0.0, vmax=top),
+    )
+    shown = (
+        f"mean of {len(band_names)} bands ({', '.join(band_names)})"
+        if len(band_names) > 1
+        else f"band {band_names[0]}"
+        if band_names
+        else "band mean"
+    )
+    fig.colorbar(
+        im,
+        ax=ax,
+        shrink=0.8,
+        label=f"TOA radiance, {shown} [W m$^{{-2}}$ sr$^{{-1}}$ nm$^{{-1}}$] "
+        "(square-root scale)",
+    )
     ax.plot(truth[:, 0], truth[:, 1], "o", mfc="none", mec="cyan", ms=8, label="lamps")
     d = obs.detections.xy_m
     if d.size:
         ax.plot(d[:, 0], d[:, 1], "+", color="lime", ms=10, label="detected")
     s = obs.score
     ax.set_title(f"{title}: P {s.precision:.2f} R {s.recall:.2f} F1 {s.f1:.2f}")
-    ax.set_xlabel("along road [m]")
-    ax.set_ylabel("across road [m]")
-    ax.legend(loc="upper right", fontsize=8)
+    ax.set_xlabel("along road x [m]")
+    ax.set_ylabel("across road y [m]")
+    ax.legend(
+        loc="upper left", bbox_to_anchor=(0.0, -0.12), ncols=2, fontsize=8, frameon=False
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -102,8 +102,10 @@ def _plot(path: str, percentiles: tuple[float, float]) -> None:
 
 
 def run(args) -> int:
-    import json
+    from ._output import atomic_path, prepare_file, print_json
 
+    if args.plot:
+        prepare_file(args.plot, "--plot")
     percentiles = tuple(args.percentiles)
     if not 0.0 <= percentiles[0] < percentiles[1] <= 100.0:
         raise ValueError(
@@ -111,7 +113,7 @@ def run(args) -> int:
         )
     rows = _summary(percentiles)
     if args.json:
-        print(json.dumps({"percentiles": list(percentiles), "types": rows}, indent=1))
+        print_json({"percentiles": list(percentiles), "types": rows}, indent=1)
     else:
         head = "  ".join(f"{w:>11g}" for w in REPORT_NM)
         print(
@@ -132,7 +134,8 @@ def run(args) -> int:
                 f"{ext:>10s}  {cells}"
             )
     if args.plot:
-        _plot(args.plot, percentiles)
+        with atomic_path(args.plot) as tmp:
+            _plot(tmp, percentiles)
         if not args.json:
             print(f"wrote {args.plot}")
     return 0

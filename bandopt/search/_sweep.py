@@ -186,7 +186,13 @@ def load_results(tasks: Sequence[dict], out_dir: str | Path) -> list[dict | None
     out = []
     for t in tasks:
         p = task_path(out_dir, t)
-        out.append(json.loads(p.read_text()) if p.is_file() else None)
+        if not p.is_file():
+            out.append(None)
+            continue
+        try:
+            out.append(json.loads(p.read_text()))
+        except ValueError as err:  # truncated or edited: name the file
+            raise ValueError(f"{p}: corrupt task file ({err}).") from None
     return out
 
 

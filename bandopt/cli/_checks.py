@@ -1,0 +1,88 @@
+"""Checks the commands apply to band sets before using them.
+
+- `coverage_check`: the library's `outside="raise"` policy at command level:
+  a band with more than `tolerance` of its response area outside the data
+  grid is refused, naming it and the fraction lost. The default tolerance
+  for reference sensors is their documented loss (VIIRS DNB loses ~15 %).
+- `has_usable_ratio`: whether a band set has at least one informative band
+  ratio (two bands whose responses are not proportional).
+"""
+
+import numpy as np
+
+
+MAX_FRACTION_OUTSIDE = 0.5
+"""A band losing more than half of its response area outside the data
+(380-900 nm) is refused: most of what it would see is not modelled."""
+
+WARN_FRACTION_OUTSIDE = 1e-3
+"""Above this (the library's `band_average` tolerance) a partial loss is
+reported as a warning naming the band and the fraction."""
+
+
+def coverage_check(bands, *, source: str, log=None) -> list[str]:
+    """Apply the off-grid policy to `bands` on the library grid: raise
+    `ValueError` for a band more than `MAX_FRACTION_OUTSIDE` outside (the
+    library's `outside="raise"` with that tolerance), return (and print to
+    `log`) a warning for each band losing more than `WARN_FRACTION_OUTSIDE`."""
+    from ..sensor._bands import _check_outside
+    from ..spectra import GRID_1NM
+
+    grid = np.asarray(GRID_1NM, float)
+    frac = np.asarray(bands.fraction_outside(grid), float)
+    names = list(bands.names)
+    try:
+        _check_outside(frac, names, MAX_FRACTION_OUTSIDE, None)
+    except ValueError:
+        bad = [
+            f"{n} ({100 * f:.1f} % of its response)"
+            for n, f in zip(names, frac, strict=True)
+            if f > MAX_FRACTION_OUTSIDE
+        ]
+        raise ValueError(
+            f"{source}: band {', '.join(bad)} lies outside the "
+            f"{grid[0]:g}-{grid[-1]:g} nm data; bands must have at least "
+            f"{100 * (1 - MAX_FRACTION_OUTSIDE):g} % of their response inside."
+        ) from None
+    warnings = [
+        f"{source}: band {n} loses {100 * f:.2g} % of its response area beyond the "
+        f"{grid[0]:g}-{grid[-1]:g} nm data; its radiance is the average over the "
+        "part inside (renormalised)"
+        for n, f in zip(names, frac, strict=True)
+        if f > WARN_FRACTION_OUTSIDE
+    ]
+    if log is not None:
+        for w in warnings:
+            print(f"warning: {w}", file=log)
+    return warnings
+
+
+def has_usable_ratio(bands, *, rtol: float = 1e-6) -> bool:
+    """True when some pair of bands has responses that are not proportional
+    on the data grid (otherwise every band ratio is a constant and the
+    estimators can only return the training mean)."""
+    from ..spectra import GRID_1NM
+
+    r = np.asarray(bands.response(np.asarray(GRID_1NM, float)), float)
+    if r.ndim != 2 or r.shape[0] < 2:
+        return False
+    norm = r / np.maximum(np.linalg.norm(r, axis=1, keepdims=True), 1e-300)
+    for i in range(len(norm)):
+        for j in range(i + 1, len(norm)):
+            if np.max(np.abs(norm[i] - norm[j])) > rtol:
+                return True
+    return False
+
+
+NO_RATIO_WARNING = (
+    "{source}: no usable band ratio ({why}); every LER, G and CCT estimate is "
+    "the training mean, whatever the lamp"
+)
+
+
+def ratio_warning(bands, source: str) -> str | None:
+    """The warning text when `bands` has no usable ratio, else None."""
+    if has_usable_ratio(bands):
+        return None
+    why = "one band" if len(bands.names) < 2 else "the bands have identical responses"
+    return NO_RATIO_WARNING.format(source=source, why=why)

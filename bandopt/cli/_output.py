@@ -1,0 +1,182 @@
+"""Safe output for the command line: valid JSON, atomic files, one run per folder.
+
+- `dump_json` / `print_json`: strict JSON (`allow_nan=False`); NaN and infinity
+  become `null` (`json_safe`), so a reader never meets the non-standard `NaN`.
+- `atomic_write_text`, `atomic_path`: a file appears complete or not at all
+  (written to a temporary name in the same folder, then `os.replace`).
+- `prepare_file`, `prepare_dir`: create the parent folder and check that it
+  is writable *before* a long computation, with a one-line error naming it.
+- `OutputLock`: refuse a second run writing into the same `--out` folder
+  while the first is alive (an `fcntl` lock on `<out>/.bandopt.lock`; the
+  kernel releases it when the process dies, so a killed run never blocks).
+"""
+
+import contextlib
+import json
+import math
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+
+LOCK_NAME = ".bandopt.lock"
+
+
+def json_safe(obj):
+    """`obj` with every non-finite float (NaN, ±inf) replaced by None, numpy
+    scalars and arrays converted to Python; containers are copied."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [json_safe(v) for v in obj]
+    if hasattr(obj, "tolist") and callable(obj.tolist):  # numpy array / scalar
+        return json_safe(obj.tolist())
+    return obj
+
+
+def _default(o):
+    if hasattr(o, "tolist"):
+        return json_safe(o.tolist())
+    if isinstance(o, Path):
+        return str(o)
+    return str(o)
+
+
+def dumps(obj, *, indent: int | None = 2) -> str:
+    """Strict JSON text of `obj` (non-finite floats as null)."""
+    return json.dumps(
+        json_safe(obj), indent=indent, allow_nan=False, default=_default
+    )
+
+
+def print_json(obj, *, indent: int | None = 2, stream=None) -> None:
+    """Print `obj` as strict JSON on stdout (or `stream`)."""
+    stream = sys.stdout if stream is None else stream
+    stream.write(dumps(obj, indent=indent) + "\n")
+
+
+def _writable_dir(directory: Path, what: str) -> None:
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise NotADirectoryError(
+            20, f"{what}: not a folder (a file has that name)", str(directory)
+        ) from None
+    if not directory.is_dir():
+        raise NotADirectoryError(20, f"{what}: not a folder", str(directory))
+    if not os.access(directory, os.W_OK | os.X_OK):
+        raise PermissionError(13, f"{what}: folder is not writable", str(directory))
+
+
+def prepare_file(path, what: str = "output") -> Path:
+    """Create the parent folder of output file `path` and check it is writable
+    and that `path` is not a folder. Raises `OSError` naming the path."""
+    path = Path(path)
+    if path.is_dir():
+        raise IsADirectoryError(21, f"{what}: is a folder, expected a file", str(path))
+    _writable_dir(path.parent if str(path.parent) else Path("."), what)
+    if path.exists() and not os.access(path, os.W_OK):
+        raise PermissionError(13, f"{what}: file is not writable", str(path))
+    return path
+
+
+def prepare_dir(path, what: str = "--out") -> Path:
+    """Create output folder `path` and check it is writable."""
+    path = Path(path)
+    _writable_dir(path, what)
+    return path
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+@contextlib.contextmanager
+def atomic_path(path):
+    """Yield a temporary path beside `path` (same suffix) to write into; on
+    success it is renamed onto `path`, on error removed."""
+    path = Path(path)
+    prepare_file(path)
+    fd, tmp = tempfile.mkstemp(
+        dir=path.parent, prefix=f".{path.stem}-", suffix=path.suffix
+    )
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; files are 0644
+        os.replace(tmp, path)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+
+
+def atomic_write_text(path, text: str) -> Path:
+    """Write `text` to `path` atomically."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+    return Path(path)
+
+
+def atomic_write_json(path, obj) -> Path:
+    """Write `obj` as strict JSON to `path` atomically."""
+    return atomic_write_text(path, dumps(obj) + "\n")
+
+
+class OutputLock:
+    """`with OutputLock(out_dir):` holds an exclusive lock on `out_dir`; a
+    second holder (another process) gets `ValueError` naming the folder and
+    the process id of the first."""
+
+    def __init__(self, directory):
+        self.directory = Path(directory)
+        self.path = self.directory / LOCK_NAME
+        self._fh = None
+
+    def __enter__(self):
+        prepare_dir(self.directory)
+        fh = open(self.path, "a+")  # noqa: SIM115 (held open while locked)
+        try:
+            import fcntl
+        except ImportError:  # not POSIX: no lock (documented)
+            self._fh = fh
+            return self
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.seek(0)
+            holder = fh.read().strip() or "another process"
+            fh.close()
+            raise ValueError(
+                f"{self.directory}: another bandopt run ({holder}) is writing "
+                "into this --out folder; wait for it or choose another --out."
+            ) from None
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"pid {os.getpid()}: {' '.join(sys.argv[1:])[:200]}\n")
+        fh.flush()
+        self._fh = fh
+        return self
+
+    def __exit__(self, *exc):
+        if self._fh is not None:
+            with contextlib.suppress(OSError):
+                self._fh.seek(0)
+                self._fh.truncate()
+            self._fh.close()  # closing releases the flock
+            self._fh = None
+        return False
+
+
+def write_manifest(directory, **kwargs) -> Path:
+    """`bandopt.provenance.manifest` written atomically to `directory`."""
+    from ..provenance import manifest
+
+    return atomic_write_text(
+        Path(directory) / "manifest.json",
+        json.dumps(manifest(**kwargs), indent=2, default=str) + "\n",
+    )
