@@ -9,7 +9,8 @@ Errors are one line on stderr, `bandopt COMMAND: error: ...`, naming the file
 or option and the problem: exit status 2 for bad input (`ValueError`, a
 missing input file), 1 for a file that cannot be written or memory that
 cannot be had, 141 for a closed output pipe (as a shell reports SIGPIPE),
-130 for Ctrl-C.
+130 for Ctrl-C, 70 for an internal error (set `BANDOPT_TRACEBACK=1` to see
+its traceback).
 """
 
 import argparse
@@ -23,6 +24,7 @@ EXIT_BAD_INPUT = 2
 EXIT_IO = 1
 EXIT_BROKEN_PIPE = 141
 EXIT_INTERRUPTED = 130
+EXIT_INTERNAL = 70
 
 
 def _version() -> str:
@@ -133,6 +135,19 @@ def main(argv: list[str] | None = None) -> int:
             f"out of memory ({_one_line(err)}); reduce the problem size",
         )
         return EXIT_IO
+    except Exception as err:  # a bug: one line, the traceback on request
+        if os.environ.get("BANDOPT_TRACEBACK"):
+            raise
+        import traceback
+
+        where = traceback.extract_tb(err.__traceback__)[-1]
+        _report(
+            args.command,
+            f"internal error {type(err).__name__}: {_one_line(err)} (at "
+            f"{os.path.basename(where.filename)}:{where.lineno}; set "
+            "BANDOPT_TRACEBACK=1 for the traceback, and please report it)",
+        )
+        return EXIT_INTERNAL
 
 
 if __name__ == "__main__":

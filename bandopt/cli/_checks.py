@@ -86,3 +86,15 @@ def ratio_warning(bands, source: str) -> str | None:
         return None
     why = "one band" if len(bands.names) < 2 else "the bands have identical responses"
     return NO_RATIO_WARNING.format(source=source, why=why)
+
+
+def band_set_warnings(bands, source: str, *, log=None) -> list[str]:
+    """`coverage_check` (raises for a band mostly outside the data) plus the
+    no-usable-ratio warning, for commands that estimate from band ratios."""
+    out = coverage_check(bands, source=source, log=log)
+    w = ratio_warning(bands, source)
+    if w is not None:
+        out.append(w)
+        if log is not None:
+            print(f"warning: {w}", file=log)
+    return out

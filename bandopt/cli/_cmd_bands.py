@@ -164,7 +164,6 @@ def plot(bands, info: dict, path: str) -> None:
 
 def run(args) -> int:
     from ..sensor import export_response_csv
-
     from ._output import atomic_path, prepare_file, print_json
 
     for opt, path in (("--export-csv", args.export_csv), ("--plot", args.plot)):

@@ -18,7 +18,8 @@ def register(subparsers):
         nargs="+",
         required=True,
         metavar="NAME|FILE",
-        help="reference sensor names (bandopt bands --list) or band-set JSON files",
+        help="reference sensor names (listed by `bandopt bands --help`) or band-set "
+        "JSON files",
     )
     p.add_argument(
         "--no-noise",
@@ -50,7 +51,7 @@ QUICK = dict(surfaces=("asphalt", "grass"), moons=(None,), classes=("P4",))
 
 
 def run(args) -> int:
-    import json
+    import sys
 
     from ..classify import (
         TRAINING_SCENARIOS,
@@ -61,8 +62,13 @@ def run(args) -> int:
     from ..forward import scenario_table
     from ..scene import build_scenarios
     from ..sensor import load_band_set
+    from ._checks import band_set_warnings
+    from ._output import print_json
 
     band_sets = [(src, load_band_set(src)) for src in args.bands]
+    warnings = {
+        src: band_set_warnings(bands, src, log=sys.stderr) for src, bands in band_sets
+    }
     atms = available_atmospheres() if args.atmospheres == "auto" else ("none",)
     kw = QUICK if args.scenarios == "quick" else TRAINING_SCENARIOS
     table = scenario_table(build_scenarios(scored_only=True, atmospheres=atms, **kw))
@@ -92,10 +98,11 @@ def run(args) -> int:
                 "centre_nm": None if centre is None else [float(c) for c in centre],
                 "fwhm_nm": None if fwhm is None else [float(f) for f in fwhm],
                 **summary(res),
+                "warnings": warnings[src],
             }
         )
     if args.json:
-        print(json.dumps(out, indent=2))
+        print_json(out)
         return 0
     for b in out["band_sets"]:
         print(f"{b['source']} ({b['n_bands']} bands, noise={noise})")

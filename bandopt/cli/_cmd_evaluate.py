@@ -111,6 +111,8 @@ def _nearest_technology(w, s):
     vis = (lib.wavelength_nm >= 380) & (lib.wavelength_nm <= 780)
     mine = np.interp(lib.wavelength_nm[vis], w, s)
     mine = mine / mine.max()
+    if nir.is_single_band_emitter(lib.wavelength_nm[vis], mine):
+        return "led", None  # no discharge lines for an LED-like single band
     best, tech = np.inf, None
     for rec, v in zip(lib.records, lib.values, strict=True):
         t = nir.technology_of(rec.level2, rec.level1)
@@ -150,7 +152,8 @@ def load_user_lamp(path):
         note = {
             "file": str(path),
             "nir_extension": tech,
-            "nearest_library_lamp": ref,
+            "nearest_library_lamp": ref
+            or "none: one emission band >= 10 nm wide, an LED (no lines added)",
             "measured_to_nm": float(sp.wavelength_nm[-1]),
         }
     return np.interp(grid, w, s), note
@@ -294,7 +297,6 @@ def _baseline_rows(est, q, rad):
 
 
 def run(args) -> int:
-    import json
     import math
     import sys
 
@@ -306,10 +308,12 @@ def run(args) -> int:
     from ..scene import band_weights, class_illuminance_lx
     from ..search import get_context
     from ..spectra import GRID_1NM
+    from ._checks import band_set_warnings
     from ._cmd_bands import _load
 
     bands, entry = _load(args.bands)
     name = entry.key if entry is not None else bands.name
+    warnings = band_set_warnings(bands, args.bands, log=sys.stderr)
     lamps = [load_user_lamp(p) for p in args.lamps]  # errors before training
     grid = np.asarray(GRID_1NM, float)
     refl, surface_label, mode, knowledge = _surface(args, grid)
@@ -383,12 +387,14 @@ def run(args) -> int:
         },
         "lamps": rows,
         "notes": notes,
+        "warnings": warnings,
     }
     if args.plot:
         _plot(rows, name, args.estimator, args.plot)
     if args.json:
-        json.dump(out, sys.stdout, indent=2, allow_nan=False)
-        print()
+        from ._output import print_json
+
+        print_json(out)
         return 0
     print(f"bands: {name}; scene: {scene}; estimator: {args.estimator}")
     for r in rows:

@@ -38,7 +38,9 @@ def spectrum_metrics(loaded) -> dict:
     vis = (grid >= 380.0) & (grid <= 780.0)
     m = metrics(values[None, vis], grid[vis])
     full = float(np.asarray(ler(values[None], grid, denominator="full"))[0])
-    visible_power = float(np.trapezoid(values[vis], grid[vis])) if vis.sum() > 1 else 0.0
+    visible_power = (
+        float(np.trapezoid(values[vis], grid[vis])) if vis.sum() > 1 else 0.0
+    )
     row = {
         "file": loaded.path,
         "LER": float(m["LER"][0]),
@@ -76,7 +78,6 @@ def _null_reasons(row: dict, visible_power: float) -> dict:
 
 def run(args) -> int:
     from ..datasets.loaders import read_spectrum
-
     from ._output import print_json
 
     rows = [spectrum_metrics(read_spectrum(f, unit=args.unit)) for f in args.files]

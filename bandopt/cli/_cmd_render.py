@@ -121,8 +121,10 @@ def check_memory(layout, dx_m: float, n_bands: int) -> None:
 
 def run(args) -> int:
     import math
+    import sys
 
     from ..spatial import load_layout
+    from ._checks import coverage_check
     from ._output import OutputLock
 
     if not (args.dx > 0 and math.isfinite(args.dx)):
@@ -130,6 +132,7 @@ def run(args) -> int:
     layout = load_layout(args.layout)
     check_lamps_inside(layout)
     bands = _bands(args.bands)
+    coverage_check(bands, source=args.bands, log=sys.stderr)
     atmosphere = None
     if args.atmosphere:
         a, aer, vis = args.atmosphere
@@ -283,7 +286,11 @@ def _plot(path, obs, truth, title, band_names=()):
     ax.set_xlabel("along road x [m]")
     ax.set_ylabel("across road y [m]")
     ax.legend(
-        loc="upper left", bbox_to_anchor=(0.0, -0.12), ncols=2, fontsize=8, frameon=False
+        loc="upper left",
+        bbox_to_anchor=(0.0, -0.12),
+        ncols=2,
+        fontsize=8,
+        frameon=False,
     )
     fig.tight_layout()
     fig.savefig(path, dpi=110)

@@ -25,21 +25,38 @@ def register(subparsers):
         help="library lamp ids (default: all measured lamps; 'scored' for "
         "the scored classes only)",
     )
-    p.add_argument("--surfaces", nargs="*", metavar="TYPE", help="surface types")
+    p.add_argument(
+        "--surfaces",
+        nargs="*",
+        metavar="TYPE",
+        help="surface types (default: the default surfaces; see bandopt surfaces)",
+    )
     p.add_argument(
         "--atmospheres",
         nargs="*",
         metavar="ATM/AEROSOL/VISkm",
-        help="e.g. midlatitude_summer/urban/23 or none",
+        help="e.g. midlatitude_summer/urban/23 or none (default: the default "
+        "atmospheres)",
     )
     p.add_argument(
         "--moon",
         nargs="*",
         metavar="PHASE",
-        help="named phases (full, first_quarter, ...) or none",
+        help="named phases (full, first_quarter, ...) or none (default: none full)",
     )
-    p.add_argument("--moon-zenith", type=float, default=30.0, metavar="DEG")
-    p.add_argument("--classes", nargs="*", metavar="CLASS", help="EN 13201 classes")
+    p.add_argument(
+        "--moon-zenith",
+        type=float,
+        default=30.0,
+        metavar="DEG",
+        help="Moon zenith angle [deg] (default 30)",
+    )
+    p.add_argument(
+        "--classes",
+        nargs="*",
+        metavar="CLASS",
+        help="EN 13201 classes (default: the four default classes)",
+    )
     p.add_argument(
         "--uplight",
         type=float,
@@ -62,20 +79,42 @@ def register(subparsers):
         "total transmittance), lit_street_dark_district (default) or isolated",
     )
     p.add_argument(
-        "--noise", action="store_true", help="add photon noise (Table 2.3 sensor)"
+        "--noise",
+        action="store_true",
+        help="add photon noise (thesis Table 2.3 sensor): Gaussian shot, dark and "
+        "read noise, e + sigma(e) z with z standard normal, so a noisy radiance "
+        "CAN BE NEGATIVE for a dim scene (as an offset-subtracted signal can); "
+        "--bits clips to the quantiser's range",
     )
     p.add_argument(
         "--gsd",
         type=float,
         default=None,
         metavar="M",
-        help="ground sample distance setting the integration time",
+        help="ground sample distance setting the integration time [m] "
+        "(default: none, the Table 2.3 integration time)",
     )
     p.add_argument(
-        "--bits", type=int, default=None, metavar="N", help="quantise to N bits"
+        "--bits",
+        type=int,
+        default=None,
+        metavar="N",
+        help="quantise to N bits between the noise-free minimum and maximum "
+        "radiance of each band (default: none)",
     )
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--out", required=True, metavar="FILE.parquet|csv")
+    p.add_argument("--seed", type=int, default=0, help="noise seed")
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR|FILE",
+        help="output folder (gets radiances.parquet and manifest.json) or a "
+        ".parquet/.csv file name",
+    )
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print a JSON summary (file, shape, radiance range per band) on stdout",
+    )
     p.set_defaults(func=run)
 
 
@@ -92,6 +131,7 @@ def _atm(text: str):
 
 
 def run(args) -> int:
+    import sys
     from pathlib import Path
 
     from tqdm import tqdm
@@ -105,12 +145,22 @@ def run(args) -> int:
         build_scenarios,
     )
     from ..sensor import SensorParams
+    from ._checks import coverage_check
     from ._cmd_bands import _load
+    from ._output import atomic_path, prepare_dir, prepare_file, print_json
 
     out = Path(args.out)
-    if out.suffix.lower() not in (".parquet", ".csv"):
-        raise ValueError(f"--out {out}: expected a .parquet or .csv file name.")
+    folder = out.suffix.lower() not in (".parquet", ".csv")
+    if folder:
+        if out.suffix and not out.is_dir():
+            raise ValueError(
+                f"--out {out}: expected a folder or a .parquet/.csv file name."
+            )
+        prepare_dir(out)
+        out = out / "radiances.parquet"
+    prepare_file(out, "--out")
     bands, _ = _load(args.bands)
+    warnings = coverage_check(bands, source=args.bands, log=sys.stderr)
     lamps = args.lamps
     scored_only = bool(lamps) and lamps == ["scored"]
     moons = (
@@ -156,13 +206,46 @@ def run(args) -> int:
             limits=limits,
         )
         frames.append(to_frame(sub, sim))
+    import numpy as np
     import pandas as pd
 
     table = pd.concat(frames, ignore_index=True)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    if out.suffix.lower() == ".parquet":
-        table.to_parquet(out, index=False)
-    else:
-        table.to_csv(out, index=False)
-    print(f"wrote {len(table)} scenarios x {len(sim.band_names)} bands to {out}")
+    with atomic_path(out) as tmp:
+        if out.suffix.lower() == ".parquet":
+            table.to_parquet(tmp, index=False)
+        else:
+            table.to_csv(tmp, index=False)
+    config = {k: v for k, v in vars(args).items() if k != "func"}
+    if folder:
+        from ._output import write_manifest
+
+        write_manifest(out.parent, seed=args.seed, config=config)
+    names = list(sim.band_names)
+    summary = {
+        "out": str(out),
+        "n_scenarios": len(table),
+        "bands": names,
+        "noise": bool(args.noise),
+        "radiance_unit": "W m-2 sr-1 nm-1",
+        "negative_note": "with --noise a dim scene's radiance can be negative "
+        "(Gaussian photon noise)",
+        "warnings": warnings,
+        "per_band": {},
+    }
+    for n in names:
+        col = next((c for c in table.columns if str(c).endswith(n)), None)
+        if col is None:
+            continue
+        v = table[col].to_numpy(float)
+        summary["per_band"][n] = {
+            "column": str(col),
+            "min": float(v.min()),
+            "median": float(np.median(v)),
+            "max": float(v.max()),
+            "negative_fraction": float(np.mean(v < 0)),
+        }
+    if args.json:
+        print_json(summary)
+    log = sys.stderr if args.json else sys.stdout
+    print(f"wrote {len(table)} scenarios x {len(names)} bands to {out}", file=log)
     return 0

@@ -139,7 +139,7 @@ class OutputLock:
 
     def __enter__(self):
         prepare_dir(self.directory)
-        fh = open(self.path, "a+")  # noqa: SIM115 (held open while locked)
+        fh = open(self.path, "a+")
         try:
             import fcntl
         except ImportError:  # not POSIX: no lock (documented)

@@ -136,6 +136,38 @@ def technology_of(level2: str | None, level1: str | None = None) -> str | None:
     }.get(level1 or "")
 
 
+SINGLE_BAND_MIN_FWHM_NM = 10.0
+"""A visible spectrum with one emission band at least this wide at half
+maximum is an LED (direct or phosphor-converted), never a low-pressure sodium
+lamp: the Na D doublet is 0.6 nm wide and reads 3-6 nm in the library's
+measured LPS spectra (instrument width), while the narrowest measured amber
+LED is 14 nm wide. HPS and other discharge lamps show several peaks."""
+
+SINGLE_BAND_PROMINENCE = 0.01
+"""Peaks with a prominence of at least 1 % of the maximum count as bands."""
+
+
+def is_single_band_emitter(wavelength_nm, values) -> bool:
+    """True when the visible spectrum has exactly one emission band
+    (prominence >= `SINGLE_BAND_PROMINENCE` of the peak) whose half-maximum
+    width is >= `SINGLE_BAND_MIN_FWHM_NM`: an LED, extended as `led` (no
+    discharge lines) whatever library lamp it resembles. All 14 library
+    spectra with a single band >= 10 nm wide are LEDs."""
+    from scipy.signal import find_peaks, peak_widths
+
+    w = np.asarray(wavelength_nm, float)
+    s = np.nan_to_num(np.asarray(values, float))
+    if s.size < 3 or not s.max() > 0:
+        return False
+    s = s / s.max()
+    peaks, _ = find_peaks(s, prominence=SINGLE_BAND_PROMINENCE)  # never at an end
+    if peaks.size != 1:
+        return False
+    width = peak_widths(s, peaks, rel_height=0.5)[0]
+    step = float(np.median(np.diff(w)))
+    return bool(width[0] * step >= SINGLE_BAND_MIN_FWHM_NM)
+
+
 def _gauss(x_nm, centres_nm, fwhm_nm):
     sigma = fwhm_nm / (2.0 * np.sqrt(2.0 * np.log(2.0)))
     z = (x_nm[:, None] - np.asarray(centres_nm)[None, :]) / sigma
