@@ -98,8 +98,8 @@ def _umask() -> int:
 
 @contextlib.contextmanager
 def atomic_path(path):
-    """Yield a temporary path beside `path` (same suffix) to write into; on
-    success it is renamed onto `path`, on error removed."""
+    """Yield a temporary path (a `str`, same suffix) beside `path` to write
+    into; on success it is renamed onto `path`, on error removed."""
     path = Path(path)
     prepare_file(path)
     fd, tmp = tempfile.mkstemp(
@@ -107,7 +107,7 @@ def atomic_path(path):
     )
     os.close(fd)
     try:
-        yield Path(tmp)
+        yield tmp
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; files are 0644
         os.replace(tmp, path)
     finally:
@@ -118,7 +118,7 @@ def atomic_path(path):
 def atomic_write_text(path, text: str) -> Path:
     """Write `text` to `path` atomically."""
     with atomic_path(path) as tmp:
-        tmp.write_text(text)
+        Path(tmp).write_text(text)
     return Path(path)
 
 
