@@ -2,11 +2,15 @@
 
 Each experiment owns one top-level key (`"spectral"`, `"classification"`,
 `"radiometry"`, `"spatial"`) and replaces only that key, so experiments can run
-in any order and a re-run overwrites only its own part.
+in any order and a re-run overwrites only its own part. Every part records
+what made it (`made_by`: mode, settings, command line, git commit, time), so a
+quick or partial run can never pass for the full result.
 """
 
+import datetime as _dt
 import json
 import os
+import sys
 import tempfile
 from pathlib import Path
 
@@ -15,22 +19,62 @@ RESULTS_DIR = Path(os.environ.get("BANDOPT_RESULTS", "results"))
 RECOMMENDATION = "recommendation.json"
 
 
+def _made_by(mode, settings) -> dict:
+    from .provenance import _git
+
+    return {
+        "mode": mode,
+        "settings": settings,
+        "command_line": list(sys.argv),
+        "git_commit": _git("rev-parse", "HEAD"),
+        "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+    }
+
+
 def update_recommendation(
-    key: str, value, *, results_dir: str | Path | None = None
+    key: str,
+    value,
+    *,
+    results_dir: str | Path | None = None,
+    path: str | Path | None = None,
+    mode: str | None = None,
+    settings: dict | None = None,
 ) -> Path:
-    """Replace `key` in `results/recommendation.json` (created if missing),
-    writing atomically so a crash never leaves a half-written file."""
-    root = Path(results_dir) if results_dir is not None else RESULTS_DIR
+    """Replace `key` in `results/recommendation.json` (or the file `path`;
+    created if missing), writing atomically so a crash never leaves a
+    half-written file.
+
+    A dict `value` gets a `made_by` entry: `mode` (e.g. "quick", "full"; else
+    `value["mode"]` or None), `settings` (else `value["settings"]` or None),
+    the command line, git commit and time of the run.
+    """
+    if path is not None:
+        path = Path(path)
+        root = path.parent if str(path.parent) else Path(".")
+    else:
+        root = Path(results_dir) if results_dir is not None else RESULTS_DIR
+        path = root / RECOMMENDATION
     root.mkdir(parents=True, exist_ok=True)
-    path = root / RECOMMENDATION
-    data = json.loads(path.read_text()) if path.is_file() else {}
+    try:
+        data = json.loads(path.read_text()) if path.is_file() else {}
+    except ValueError as err:
+        raise ValueError(f"{path}: not valid JSON ({err}).") from None
     if not isinstance(data, dict):
         raise ValueError(f"{path}: expected a JSON object at the top level.")
+    if isinstance(value, dict):
+        value = {
+            **value,
+            "made_by": _made_by(
+                mode if mode is not None else value.get("mode"),
+                settings if settings is not None else value.get("settings"),
+            ),
+        }
     data[key] = value
     fd, tmp = tempfile.mkstemp(dir=root, prefix=".recommendation-", suffix=".json")
     with os.fdopen(fd, "w") as fh:
         json.dump(data, fh, indent=2, default=str)
         fh.write("\n")
+    os.chmod(tmp, 0o644)
     os.replace(tmp, path)
     return path
 

@@ -1,20 +1,98 @@
 """Radiometric sampling (issue 7; thesis section 4.2, Tables 4.5-4.7).
 
-Run:   python -m experiments.radiometry [--quick] [--bands NAME|FILE]
+Run:   python -m experiments.radiometry [--quick] [--bands NAME|FILE|ours]
+       (`make radiometry`: the full configuration)
        python -m experiments.radiometry --readme-only
-Writes results/radiometry/ (distributions.csv, limits.csv, sensitivity.csv,
-snr_ner.csv, quantisation_noise.csv, bit_depth.csv, summary.json,
-histograms/*.png, manifest.json), key "radiometry" of
-results/recommendation.json and the radiometry section of results/README.md
-(generated from summary.json; `--readme-only` regenerates just that section).
-Same as `bandopt radiometry --bands ours` plus the README section.
+
+The experiment owns `results/radiometry/` and key "radiometry" of
+`results/recommendation.json`:
+
+- `--bands ours` (default): the "spectral" bands of
+  results/recommendation.json, else SDGSAT-1 (`DEFAULT_BAND_SET`); writes
+  results/radiometry/ (distributions.csv, limits.csv, sensitivity.csv,
+  snr_ner.csv, quantisation_noise.csv, bit_depth.csv, summary.json,
+  histograms/*.png, manifest.json), key "radiometry" and the radiometry
+  section of results/README.md (generated from summary.json;
+  `--readme-only` regenerates just that section);
+- another band set: results/radiometry/<name>/, no recommendation;
+- `--quick`: results/radiometry/quick/ (never the committed full tables) and
+  no recommendation unless `--recommend` is given; every part written to
+  recommendation.json records its `mode` ("quick"/"full") and settings.
+
+`bandopt radiometry --out DIR` runs the same analysis into any folder and
+touches nothing else.
 """
 
+import argparse
 import json
 import sys
 from pathlib import Path
 
-from bandopt.cli import main
+
+DEFAULT_BAND_SET = "sdgsat-1"
+RESULTS = Path("results")
+
+
+def load_band_set(source: str, *, results_dir: str | Path = RESULTS):
+    """A band set and its label from `source`: `ours` (the "spectral" bands
+    of results/recommendation.json, else the documented default
+    `DEFAULT_BAND_SET`), a reference sensor name or a band-set JSON file.
+    Returns `(bands, label, note)`."""
+    from bandopt import radiometry
+    from bandopt.radiometry._report import _spectral_bands
+
+    if str(source).strip().lower() in ("ours", "recommended"):
+        path = Path(results_dir) / "recommendation.json"
+        spectral = None
+        if path.is_file():
+            spectral = json.loads(path.read_text()).get("spectral")
+        found = _spectral_bands(spectral, path)
+        if found is not None:
+            return found, "ours", f"bands from {path} key 'spectral'"
+        bands, _, _ = radiometry.load_band_set(DEFAULT_BAND_SET)
+        return (
+            bands,
+            "ours",
+            f"no 'spectral' bands in {path}: default {DEFAULT_BAND_SET} "
+            "(SDGSAT-1 Glimmer PAN, blue, green, red)",
+        )
+    return radiometry.load_band_set(source)
+
+
+def run(
+    bands,
+    label: str,
+    out_dir: str | Path,
+    *,
+    config=None,
+    params=None,
+    rule=None,
+    recommend: bool = True,
+    results_dir: str | Path | None = None,
+    note: str = "",
+    log=print,
+) -> dict:
+    """Compute (`bandopt.radiometry.compute`), write `out_dir` and, with
+    `recommend`, key "radiometry" of `results_dir`/recommendation.json with
+    the mode and settings. Returns the summary."""
+    from bandopt.cli._cmd_radiometry import write_results
+    from bandopt.cli._output import OutputLock
+    from bandopt.radiometry import compute
+    from bandopt.results import update_recommendation
+
+    with OutputLock(out_dir) as lock:
+        result = compute(
+            bands, label, config=config, params=params, rule=rule, note=note, log=log
+        )
+        write_results(result, lock.directory)
+    if recommend:
+        update_recommendation(
+            "radiometry",
+            {**result["recommendation"], "results": str(out_dir)},
+            results_dir=results_dir,
+        )
+    log(f"[radiometry] wrote {out_dir}")
+    return result["summary"]
 
 
 def readme_text(summary: dict) -> str:
@@ -61,21 +139,49 @@ def write_readme(results: str | Path = "results") -> Path:
     )
 
 
-if __name__ == "__main__":
-    argv = sys.argv[1:]
-    if argv == ["--readme-only"]:
-        print(f"wrote {write_readme()}")
-        sys.exit(0)
-    if not any(a.startswith("--bands") for a in argv):
-        argv = ["--bands", "ours", *argv]
-    # the default run (the make target) owns results/radiometry and its part of
-    # recommendation.json; say so explicitly rather than rely on a default
-    default_run = "ours" in argv and not any(
-        a.startswith(("--out", "--quick")) for a in argv
+def main(argv=None) -> int:
+    from bandopt import configure
+    from bandopt.radiometry import RadiometryConfig
+
+    configure()
+    ap = argparse.ArgumentParser(prog="python -m experiments.radiometry")
+    ap.add_argument("--bands", default="ours", help="ours, a sensor name or a file")
+    ap.add_argument("--quick", action="store_true", help="small scenario sets")
+    ap.add_argument(
+        "--recommend",
+        action="store_true",
+        help="update key 'radiometry' even for --quick or a band set not ours",
     )
-    if default_run and "--recommend" not in argv:
-        argv.append("--recommend")
-    rc = main(["radiometry", *argv])
-    if rc == 0 and default_run:
+    ap.add_argument("--no-references", action="store_true")
+    ap.add_argument("--no-bit-depth", action="store_true")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument(
+        "--readme-only",
+        action="store_true",
+        help="only regenerate the radiometry section of results/README.md",
+    )
+    args = ap.parse_args(argv)
+    if args.readme_only:
+        print(f"wrote {write_readme()}")
+        return 0
+    bands, label, note = load_band_set(args.bands)
+    over = {"seed": args.seed}
+    if args.no_references:
+        over["references"] = False
+    if args.no_bit_depth:
+        over["bit_depth_table"] = False
+    config = RadiometryConfig.quick(**over) if args.quick else RadiometryConfig(**over)
+    out = RESULTS / "radiometry"
+    if label != "ours":
+        out = out / label
+    if args.quick:
+        out = out / "quick"
+    recommend = args.recommend or (label == "ours" and not args.quick)
+    run(bands, label, out, config=config, recommend=recommend, note=note)
+    if label == "ours" and not args.quick:
         write_readme()
-    sys.exit(rc)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

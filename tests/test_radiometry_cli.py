@@ -12,9 +12,9 @@ from bandopt.radiometry import (
     RadiometryConfig,
     load_band_set,
     measure,
-    run,
 )
 from bandopt.radiometry._report import recommend_bits
+from experiments.radiometry import load_band_set as load_ours, run
 
 
 def test_help(capsys):
@@ -49,10 +49,10 @@ def test_ours_reads_spectral_recommendation(tmp_path):
             }
         )
     )
-    bands, label, note = load_band_set("ours", results_dir=tmp_path)
+    bands, label, note = load_ours("ours", results_dir=tmp_path)
     assert label == "ours" and list(bands.names) == ["b1", "b2"] and "spectral" in note
     (tmp_path / "recommendation.json").write_text("{}")
-    bands, _, note = load_band_set("ours", results_dir=tmp_path)
+    bands, _, note = load_ours("ours", results_dir=tmp_path)
     assert "default" in note and len(bands) == 4
 
 

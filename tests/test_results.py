@@ -10,7 +10,22 @@ def test_update_recommendation_merges_keys(tmp_path):
     update_recommendation("radiometry", {"bits": 12}, results_dir=tmp_path)
     update_recommendation("spectral", {"bands": [2]}, results_dir=tmp_path)
     data = json.loads((tmp_path / "recommendation.json").read_text())
+    made = {k: v.pop("made_by") for k, v in data.items()}  # issue 15: provenance
     assert data == {"spectral": {"bands": [2]}, "radiometry": {"bits": 12}}
+    assert set(made["radiometry"]) >= {"mode", "settings", "command_line"}
+
+
+def test_every_part_records_mode_and_settings(tmp_path):
+    update_recommendation(
+        "radiometry", {"bits": 12, "mode": "quick"}, results_dir=tmp_path
+    )
+    update_recommendation(
+        "spatial", {"gsd": 5}, results_dir=tmp_path, mode="full", settings={"a": 1}
+    )
+    data = json.loads((tmp_path / "recommendation.json").read_text())
+    assert data["radiometry"]["made_by"]["mode"] == "quick"
+    assert data["spatial"]["made_by"]["mode"] == "full"
+    assert data["spatial"]["made_by"]["settings"] == {"a": 1}
 
 
 def test_update_recommendation_rejects_non_object(tmp_path):

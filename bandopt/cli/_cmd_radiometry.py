@@ -12,26 +12,32 @@ def register(subparsers):
             "from a stated rule with a natural night-sky floor, SNR and "
             "noise-equivalent radiance with the photon model, and LER/G/CCT "
             "errors and classification F1 for 8-16 bit linear quantisation, "
-            "two gain stages and square-root companding. NAME|FILE: 'ours' (the "
-            "'spectral' bands of results/recommendation.json, else SDGSAT-1), a "
-            "reference sensor name (see `bandopt bands`) or a band-set JSON file. "
-            "Writes tables (CSV/JSON), histograms and a manifest to --out."
+            "two gain stages and square-root companding. Writes tables (CSV), "
+            "summary.json, histograms and manifest.json into --out, and nothing "
+            "else (`make radiometry` owns results/radiometry and the 'radiometry' "
+            "key of results/recommendation.json)."
         ),
     )
     p.add_argument(
-        "--bands", default="ours", metavar="NAME|FILE", help="band set (default: ours)"
+        "--bands",
+        default="sdgsat-1",
+        metavar="NAME|FILE",
+        help="reference sensor name (see `bandopt bands --help`), band-set JSON "
+        "file, or a recommendation JSON file whose 'spectral' key holds the bands "
+        "(e.g. results/recommendation.json) (default: sdgsat-1)",
     )
     p.add_argument(
         "--out",
-        default=None,
+        required=True,
         metavar="DIR",
-        help="output folder (default results/radiometry, or "
-        "results/radiometry/<name> for a band set other than ours)",
+        help="output folder; a second run into the same folder is refused while "
+        "the first is running",
     )
     p.add_argument(
         "--quick",
         action="store_true",
-        help="small scenario sets, no reference sensors (seconds)",
+        help="small scenario sets, no reference sensors (seconds); recorded as "
+        "mode 'quick' in summary.json and in --recommend",
     )
     p.add_argument(
         "--no-references", action="store_true", help="skip the reference-sensor tables"
@@ -42,19 +48,22 @@ def register(subparsers):
         help="skip the bit-depth error table (the slow part)",
     )
     p.add_argument(
-        "--snr", type=float, default=10.0, help="SNR target at the detection limit"
+        "--snr",
+        type=float,
+        default=10.0,
+        help="SNR target at the detection limit [1] (default 10)",
     )
     p.add_argument(
         "--dim-percentile",
         type=float,
         default=5.0,
-        help="percentile over lamps of the dim scenes [%%]",
+        help="percentile over lamps of the dim scenes [%%] (default 5)",
     )
     p.add_argument(
         "--headroom",
         type=float,
         default=2.0,
-        help="saturation margin above the brightest scene [1]",
+        help="saturation margin above the brightest scene [1] (default 2)",
     )
     p.add_argument(
         "--sensor-limited",
@@ -66,35 +75,99 @@ def register(subparsers):
         type=float,
         default=None,
         metavar="M",
-        help="integration time from this GSD at 600 km (default: Table 2.3)",
+        help="integration time from this GSD at 600 km [m] (default: Table 2.3)",
     )
-    p.add_argument("--read-noise", type=float, default=0.0, help="read noise [e-]")
     p.add_argument(
-        "--dark-current", type=float, default=0.0, help="dark current [e-/s]"
+        "--read-noise", type=float, default=0.0, help="read noise [e-] (default 0)"
     )
-    p.add_argument("--tdi", type=int, default=256, help="TDI stages")
+    p.add_argument(
+        "--dark-current",
+        type=float,
+        default=0.0,
+        help="dark current [e-/s] (default 0)",
+    )
+    p.add_argument("--tdi", type=int, default=256, help="TDI stages (default 256)")
     p.add_argument(
         "--recommend",
-        action="store_true",
-        help="write key 'radiometry' of results/recommendation.json "
-        "(default only for --bands ours)",
+        default=None,
+        metavar="FILE",
+        help="also put the limits and bit depth, with the mode and settings that "
+        "made them, under key 'radiometry' of this recommendation JSON file "
+        "(default: none)",
     )
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--lamps",
+        nargs="+",
+        default=None,
+        metavar="ID",
+        help="library lamp ids to use (default: all; see `bandopt library`)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="noise seed")
+    p.add_argument(
+        "--json", action="store_true", help="print summary.json on stdout"
+    )
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def write_csv(rows: list[dict], path) -> None:
+    """`rows` as CSV (floats to 6 significant digits), written atomically."""
+    import csv
+
+    from ._output import atomic_path
+
+    keys: list[str] = []
+    for r in rows:
+        keys += [k for k in r if k not in keys]
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys)
+        w.writeheader()
+        for r in rows:
+            w.writerow(
+                {k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()}
+            )
+
+
+def write_results(result: dict, out) -> None:
+    """Write a `bandopt.radiometry.compute` result into folder `out`: the
+    tables, `histograms/<band set>.png`, `summary.json` and `manifest.json`
+    (each file atomically)."""
     from pathlib import Path
 
-    from ..radiometry import (
-        LimitRule,
-        RadiometryConfig,
-        load_band_set,
-        run as run_radiometry,
-    )
-    from ..sensor import SensorParams
+    from ..radiometry import plot_histograms
+    from ._output import atomic_path, atomic_write_json, prepare_dir, write_manifest
 
+    out = Path(out)
+    prepare_dir(out / "histograms")
+    for name, rows in result["tables"].items():
+        write_csv(rows, out / name)
+    for slug, (groups, limits, key) in result["histograms"].items():
+        with atomic_path(out / "histograms" / f"{slug}.png") as tmp:
+            plot_histograms(
+                groups,
+                limits,
+                Path(tmp),
+                title=f"{key}: TOA band radiance by scene group",
+            )
+    atomic_write_json(out / "summary.json", result["summary"])
+    write_manifest(out, seed=result["seed"], config=result["manifest_config"])
+
+
+def run(args) -> int:
+    import sys
+
+    from ..radiometry import LimitRule, RadiometryConfig, compute, load_band_set
+    from ..results import update_recommendation
+    from ..sensor import SensorParams
+    from ._checks import coverage_check
+    from ._output import OutputLock, prepare_file, print_json
+
+    recommend = None
+    if args.recommend:
+        recommend = prepare_file(args.recommend, "--recommend")
+        if recommend.suffix.lower() != ".json":
+            raise ValueError(f"--recommend {recommend}: expected a .json file name.")
     bands, label, note = load_band_set(args.bands)
+    coverage_check(bands, source=args.bands, log=sys.stderr)
     kw = dict(
         read_noise_e=args.read_noise,
         dark_current_e_s=args.dark_current,
@@ -108,29 +181,33 @@ def run(args) -> int:
         sensor_limited=args.sensor_limited,
     )
     over = {"seed": args.seed}
+    if args.lamps:
+        over["lamps"] = tuple(args.lamps)
     if args.no_references:
         over["references"] = False
     if args.no_bit_depth:
         over["bit_depth_table"] = False
     config = RadiometryConfig.quick(**over) if args.quick else RadiometryConfig(**over)
-    ours = label == "ours"
-    out = (
-        Path(args.out)
-        if args.out
-        else (
-            Path("results/radiometry") if ours else Path("results/radiometry") / label
+    log = sys.stderr if args.json else sys.stdout
+    with OutputLock(args.out) as lock:
+        out = lock.directory
+        result = compute(
+            bands,
+            label,
+            config=config,
+            params=params,
+            rule=rule,
+            note=note,
+            log=lambda *a: print(*a, file=log, flush=True),
         )
-    )
-    summary = run_radiometry(
-        bands,
-        label,
-        out,
-        config=config,
-        params=params,
-        rule=rule,
-        recommend=ours or args.recommend,
-        note=note,
-    )
+        write_results(result, out)
+    if recommend is not None:
+        rec = {**result["recommendation"], "results": str(out)}
+        update_recommendation("radiometry", rec, path=recommend)
+    summary = result["summary"]
+    if args.json:
+        print_json(summary)
+        return 0
     print(f"{'band':<12}{'L_min':>11}{'L_max':>11}{'limited by':>12}{'SNR@L_min':>11}")
     for b in summary["bands"]:
         print(
@@ -141,5 +218,7 @@ def run(args) -> int:
     bd = summary.get("bit_depth")
     if bd:
         print(f"bit depth (linear): {bd['recommended_linear_bits']}  ({bd['rule']})")
-    print(f"(radiance in W m-2 sr-1 nm-1; tables in {out})")
+    print(f"(radiance in W m-2 sr-1 nm-1; mode {config.mode}; tables in {out})")
+    if recommend is not None:
+        print(f"updated key 'radiometry' of {recommend}")
     return 0

@@ -8,7 +8,9 @@ SNR/NER and bit depth per band (thesis sections 2.5.2-2.5.3 and 4.2).
   `electrons_for_snr`, `radiance_for_snr`, `bits_for_linear`.
 - `LinearQuantiser`, `TwoGainQuantiser`, `SqrtQuantiser`, `make_quantiser`.
 - `measure`, `score`, `bit_depth_rows`: errors per bit depth (Table 4.7).
-- `RadiometryConfig`, `run`, `load_band_set`: the experiment.
+- `RadiometryConfig`, `compute`, `load_band_set`, `plot_histograms`: the
+  analysis (writes nothing; `bandopt radiometry` and experiments/radiometry.py
+  write the results).
 """
 
 from ._background import (
@@ -54,6 +56,7 @@ from ._quantisers import (
 from ._report import (
     DEFAULT_BAND_SET as DEFAULT_BAND_SET,
     RadiometryConfig as RadiometryConfig,
+    compute as compute,
     load_band_set as load_band_set,
-    run as run,
+    plot_histograms as plot_histograms,
 )

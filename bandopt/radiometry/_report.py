@@ -1,11 +1,13 @@
-"""The radiometry experiment: distributions, limits, SNR/NER, bit depth, for
-one band set (and the reference sensors), written to a results folder.
+"""The radiometry analysis: distributions, limits, SNR/NER, bit depth, for
+one band set (and the reference sensors).
 
-Orchestration only (the physics is in the sibling modules). Used by
-`python -m experiments.radiometry` and `bandopt radiometry`.
+`compute` returns the tables, summary and recommendation and writes nothing:
+`bandopt radiometry --out DIR` writes them into DIR, and
+`python -m experiments.radiometry` (`make radiometry`) owns results/radiometry
+and the "radiometry" key of results/recommendation.json. The package never
+reads or writes results/ by itself.
 """
 
-import csv
 import dataclasses
 import json
 import time
@@ -49,7 +51,8 @@ class RadiometryConfig:
     uplight at `uplight_ratio`, fires at `fire_temperatures_k` burning
     `fire_fraction` of the pixel with `fire_emissivity`.
     Bit-depth set (scored lamps only): `eval_*`. Quantisers: linear at
-    `bit_depths`, two-gain and square-root at `companding_bits`.
+    `bit_depths`, two-gain and square-root at `companding_bits`. `mode`:
+    "full" or "quick" (`quick()`), recorded in every output.
     """
 
     surfaces: tuple[str, ...] = (*DEFAULT_SURFACES, "snow")
@@ -80,6 +83,7 @@ class RadiometryConfig:
     bit_depth_table: bool = True
     lamps: tuple[str, ...] | None = None
     seed: int = 0
+    mode: str = "full"
 
     @classmethod
     def quick(cls, **kw) -> "RadiometryConfig":
@@ -96,6 +100,7 @@ class RadiometryConfig:
             bit_depths=(8, 12, 16),
             companding_bits=(8,),
             references=False,
+            mode="quick",
         )
         base.update(kw)
         return cls(**base)
@@ -133,27 +138,32 @@ def default_band_set():
     return reference_sensor(DEFAULT_BAND_SET)
 
 
-def load_band_set(source: str, *, results_dir: str | Path = "results"):
-    """A band set and its label from `source`: `ours` (the "spectral" bands
-    of results/recommendation.json, else the documented default
-    `DEFAULT_BAND_SET`), a reference sensor name or a band-set JSON file.
-    Returns `(bands, label, note)`."""
+def load_band_set(source: str):
+    """A band set and its label from `source`: a reference sensor name, a
+    band-set JSON file, or a recommendation JSON file (a top-level "spectral"
+    key holding a band set; label "ours"). Returns `(bands, label, note)`.
+
+    "ours" is not resolved here (that would read results/ behind the user's
+    back): name the recommendation file, or run `make radiometry`."""
     from ..sensor import resolve_band_set
 
     if str(source).strip().lower() in ("ours", "recommended"):
-        path = Path(results_dir) / "recommendation.json"
-        spectral = None
-        if path.is_file():
-            spectral = json.loads(path.read_text()).get("spectral")
-        found = _spectral_bands(spectral, path)
-        if found is not None:
-            return found, "ours", f"bands from {path} key 'spectral'"
-        return (
-            default_band_set(),
-            "ours",
-            f"no 'spectral' bands in {path}: default {DEFAULT_BAND_SET} "
-            "(SDGSAT-1 Glimmer PAN, blue, green, red)",
+        raise ValueError(
+            f"--bands {source!r}: name the file holding the bands, e.g. "
+            "results/recommendation.json (its 'spectral' key), or run "
+            "`make radiometry` (python -m experiments.radiometry --bands ours)."
         )
+    p = Path(source)
+    if p.suffix.lower() == ".json" and p.is_file():
+        try:
+            data = json.loads(p.read_text())
+        except (ValueError, UnicodeDecodeError):
+            data = None  # the band-set loader names the problem
+        if isinstance(data, dict) and "spectral" in data and "bands" not in data:
+            found = _spectral_bands(data["spectral"], p)
+            if found is None:
+                raise ValueError(f"{p}: key 'spectral' holds no band set.")
+            return found, "ours", f"bands from {p} key 'spectral'"
     found = resolve_band_set(source)
     if found.entry is None:
         return found.bands, found.label, f"band-set file {found.path}"
@@ -471,44 +481,11 @@ def plot_histograms(
 
 
 # ------------------------------------------------------------------------------
-# output helpers
-
-
-def write_csv(rows: list[dict], path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    keys: list[str] = []
-    for r in rows:
-        keys += [k for k in r if k not in keys]
-    with path.open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        for r in rows:
-            w.writerow(
-                {k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()}
-            )
-    return path
-
-
-def _json(obj, path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(obj, indent=2, default=_default) + "\n")
-    return path
-
-
-def _default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, np.generic):
-        return o.item()
-    return str(o)
+# the computation (writes nothing; the CLI and experiments/radiometry.py write)
 
 
 def _slug(name: str) -> str:
     return "".join(c if c.isalnum() or c in "-_" else "_" for c in name)
-
-
-# ------------------------------------------------------------------------------
-# the experiment
 
 
 def analyse(scen, bands, label: str, params: SensorParams, rule: LimitRule) -> dict:
@@ -531,24 +508,29 @@ def analyse(scen, bands, label: str, params: SensorParams, rule: LimitRule) -> d
     }
 
 
-def run(
+def compute(
     bands,
     label: str,
-    out_dir: str | Path,
     *,
     config: RadiometryConfig | None = None,
     params: SensorParams | None = None,
     rule: LimitRule | None = None,
-    recommend: bool = True,
-    results_dir: str | Path | None = None,
     note: str = "",
     log=print,
 ) -> dict:
-    """Run the experiment for `bands` and write `out_dir` (tables, figures,
-    manifest); with `recommend`, put the limits and bit depth under key
-    "radiometry" of results/recommendation.json. Returns the summary."""
-    from ..provenance import write_manifest
-    from ..results import update_recommendation
+    """Run the radiometry analysis for `bands` (and the reference sensors when
+    `config.references`). Writes nothing. Returns a dict:
+
+    - `summary`: JSON-ready summary (limits per band, rule, bit depth, the
+      configuration with its `mode`);
+    - `tables`: file name -> rows (`distributions.csv`, `limits.csv`,
+      `sensitivity.csv`, `snr_ner.csv`, `quantisation_noise.csv`, and
+      `bit_depth.csv` when computed);
+    - `histograms`: band-set key -> `(groups, limits)` for `plot_histograms`;
+    - `recommendation`: the value for key "radiometry" of a recommendation
+      file, with `mode` and `settings` (what made it);
+    - `manifest_config`: the configuration for the provenance manifest.
+    """
     from ..sensor import REFERENCE_SENSORS
     from ._bitdepth import bit_depth_rows
 
@@ -556,8 +538,6 @@ def run(
     config = RadiometryConfig() if config is None else config
     params = SensorParams() if params is None else params
     rule = LimitRule() if rule is None else rule
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
 
     scen, atm_note = distribution_set(config)
     log(
@@ -575,6 +555,7 @@ def run(
         log(f"[radiometry] reference sensors done, {time.perf_counter() - t0:.1f} s")
 
     dist, lim, sens, snr_tab = [], [], [], []
+    histograms = {}
     for key, res in results.items():
         dist += res["distribution"]
         rows = res["limit_rows"]
@@ -589,34 +570,37 @@ def run(
         lim += rows
         sens += res["sensitivity"]
         snr_tab += res["snr"]
-        plot_histograms(
-            res["groups"],
-            res["limits"],
-            out / "histograms" / f"{_slug(key)}.png",
-            title=f"{key}: TOA band radiance by scene group",
-        )
-    write_csv(dist, out / "distributions.csv")
-    write_csv(lim, out / "limits.csv")
-    write_csv(sens, out / "sensitivity.csv")
-    write_csv(snr_tab, out / "snr_ner.csv")
+        histograms[_slug(key)] = (res["groups"], res["limits"], key)
+    tables = {
+        "distributions.csv": dist,
+        "limits.csv": lim,
+        "sensitivity.csv": sens,
+        "snr_ner.csv": snr_tab,
+    }
 
     limits = ours["limits"]
     qs = quantisers_for(limits, params, config.bit_depths, config.companding_bits)
-    qrows = quantisation_noise_rows(ours["groups"], limits, params, qs, band_set=label)
-    write_csv(qrows, out / "quantisation_noise.csv")
+    tables["quantisation_noise.csv"] = quantisation_noise_rows(
+        ours["groups"], limits, params, qs, band_set=label
+    )
 
     bit_rows, bits_rec, eval_note = [], None, ""
     if config.bit_depth_table:
         escen, eval_note = evaluation_set(config)
         log(f"[radiometry] bit-depth set {escen.shape} ({eval_note})")
         bit_rows = bit_depth_rows(escen, bands, qs, params, seed=config.seed)
-        write_csv(bit_rows, out / "bit_depth.csv")
+        tables["bit_depth.csv"] = bit_rows
         bits_rec = recommend_bits(bit_rows)
         log(f"[radiometry] bit depth done, {time.perf_counter() - t0:.1f} s")
 
+    sensor = {
+        fld.name: np.asarray(getattr(params, fld.name)).tolist()
+        for fld in dataclasses.fields(params)
+    }
     summary = {
         "band_set": label,
         "band_set_note": note,
+        "mode": config.mode,
         "bands": limits.rows(band_set=label),
         "rule": rule.as_dict(),
         "rule_text": (
@@ -634,10 +618,7 @@ def run(
             "mag_arcsec2": NIGHT_SKY_MAG_ARCSEC2,
             "uncertainty_factor": BACKGROUND_UNCERTAINTY_FACTOR,
         },
-        "sensor_params": {
-            fld.name: np.asarray(getattr(params, fld.name)).tolist()
-            for fld in dataclasses.fields(params)
-        },
+        "sensor_params": sensor,
         "bits_linear_step_le_ner_at_limit": int(np.max(ours["bits_step_le_ner"])),
         "bit_depth": bits_rec,
         "bit_depth_table": bit_rows,
@@ -647,62 +628,55 @@ def run(
         "config": config.as_dict(),
         "runtime_s": round(time.perf_counter() - t0, 1),
     }
-    _json(summary, out / "summary.json")
-    write_manifest(
-        out,
-        seed=config.seed,
-        config={
-            "band_set": label,
-            "band_set_note": note,
-            "rule": rule.as_dict(),
+
+    def per_band(values):
+        return dict(zip(limits.band_names, values, strict=True))
+
+    recommendation = {
+        "band_set": label,
+        "band_set_note": note,
+        "mode": config.mode,
+        "settings": {
             "radiometry": config.as_dict(),
-            "atmospheres": atm_note,
+            "rule": rule.as_dict(),
+            "sensor_params": sensor,
         },
-    )
-    if recommend:
-        update_recommendation(
-            "radiometry",
-            {
-                "band_set": label,
-                "band_set_note": note,
-                "detection_limit_w_m2_sr_nm": dict(
-                    zip(limits.band_names, limits.detection_limit.tolist(), strict=True)
-                ),
-                "saturation_w_m2_sr_nm": dict(
-                    zip(limits.band_names, limits.saturation.tolist(), strict=True)
-                ),
-                "limited_by": dict(
-                    zip(limits.band_names, limits.limited_by, strict=True)
-                ),
-                "snr_at_limit": dict(
-                    zip(limits.band_names, limits.snr_at_limit.tolist(), strict=True)
-                ),
-                "bit_depth": None
-                if bits_rec is None
-                else bits_rec["recommended_linear_bits"],
-                "bit_depth_companded": None
-                if bits_rec is None
-                else bits_rec["recommended_companded_bits"],
-                "companding": None
-                if bits_rec is None
-                else bits_rec["recommended_companding"],
-                "bit_depth_rule": None if bits_rec is None else bits_rec["rule"],
-                "bands": [
-                    {"name": n, "centre_nm": float(c), "fwhm_nm": float(w)}
-                    for n, c, w in zip(
-                        bands.names,
-                        np.asarray(bands.centre_nm).tolist(),
-                        np.asarray(bands.fwhm_nm).tolist(),
-                        strict=True,
-                    )
-                ],
-                "bits_linear_step_le_ner_at_limit": summary[
-                    "bits_linear_step_le_ner_at_limit"
-                ],
-                "rule": rule.as_dict(),
-                "results": str(out),
-            },
-            results_dir=results_dir,
-        )
-    log(f"[radiometry] wrote {out} in {time.perf_counter() - t0:.1f} s")
-    return summary
+        "detection_limit_w_m2_sr_nm": per_band(limits.detection_limit.tolist()),
+        "saturation_w_m2_sr_nm": per_band(limits.saturation.tolist()),
+        "limited_by": per_band(limits.limited_by),
+        "snr_at_limit": per_band(limits.snr_at_limit.tolist()),
+        "bit_depth": None if bits_rec is None else bits_rec["recommended_linear_bits"],
+        "bit_depth_companded": None
+        if bits_rec is None
+        else bits_rec["recommended_companded_bits"],
+        "companding": None if bits_rec is None else bits_rec["recommended_companding"],
+        "bit_depth_rule": None if bits_rec is None else bits_rec["rule"],
+        "bands": [
+            {"name": n, "centre_nm": float(c), "fwhm_nm": float(w)}
+            for n, c, w in zip(
+                bands.names,
+                np.asarray(bands.centre_nm).tolist(),
+                np.asarray(bands.fwhm_nm).tolist(),
+                strict=True,
+            )
+        ],
+        "bits_linear_step_le_ner_at_limit": summary[
+            "bits_linear_step_le_ner_at_limit"
+        ],
+        "rule": rule.as_dict(),
+    }
+    manifest_config = {
+        "band_set": label,
+        "band_set_note": note,
+        "rule": rule.as_dict(),
+        "radiometry": config.as_dict(),
+        "atmospheres": atm_note,
+    }
+    return {
+        "summary": summary,
+        "tables": tables,
+        "histograms": histograms,
+        "recommendation": recommendation,
+        "manifest_config": manifest_config,
+        "seed": config.seed,
+    }
