@@ -99,6 +99,29 @@ def _silence_stdout() -> None:
         pass
 
 
+def _configure_environment() -> None:
+    """`bandopt.configure()` without importing JAX: the same settings (CPU,
+    float64, persistent compilation cache) as environment variables, which
+    JAX reads when a command first imports it. A command that needs no JAX
+    (a cached listing, `--help`) then starts in a fraction of a second. If
+    JAX is already imported (tests, a Python session), configure it now."""
+    from pathlib import Path
+
+    os.environ.setdefault("JAX_PLATFORMS", "cpu")
+    cache = os.environ.get(
+        "BANDOPT_JAX_CACHE", str(Path.home() / ".cache" / "bandopt" / "jax")
+    )
+    if "jax" in sys.modules:
+        from .._config import configure
+
+        configure()
+        return
+    Path(cache).mkdir(parents=True, exist_ok=True)
+    os.environ["JAX_ENABLE_X64"] = "1"
+    os.environ["JAX_COMPILATION_CACHE_DIR"] = cache
+    os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0.5"
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser()
@@ -109,9 +132,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 0
-    from .._config import configure
-
-    configure()
+    _configure_environment()
     try:
         rc = int(args.func(args) or 0)
         sys.stdout.flush()

@@ -27,7 +27,11 @@ def register(subparsers):
         help="noise-free radiance (scenes deduplicated) instead of photon noise",
     )
     p.add_argument(
-        "--features", default="log_ratio", choices=("log_ratio", "sum_normalised")
+        "--features",
+        default="log_ratio",
+        choices=("log_ratio", "sum_normalised"),
+        help="classifier features: log band ratios or band radiances divided by "
+        "their sum",
     )
     p.add_argument(
         "--scenarios",

@@ -1,5 +1,7 @@
 """`bandopt library`: the lamp library with typology and photometry."""
 
+import sys
+
 
 def register(subparsers):
     p = subparsers.add_parser(
@@ -131,11 +133,21 @@ def _plot(lib, rows, path):
 
 
 def run(args) -> int:
-    from ..datasets.lamps import library
+    from . import _cache
     from ._output import atomic_path, prepare_file, print_json
 
     if args.plot:
         prepare_file(args.plot, "--plot")
+    cache_key = None
+    if args.json and not args.plot:  # the listing alone: served from the cache
+        opts = {"counts": args.counts, "no_extension": args.no_extension}
+        cache_key = _cache.key("library", opts)
+        text = _cache.load("library", cache_key)
+        if text is not None:
+            sys.stdout.write(text)
+            return 0
+    from ..datasets.lamps import library
+
     lib = library(extend_nir=not args.no_extension)
     rows = library_rows(lib)
     if args.plot:
@@ -144,6 +156,13 @@ def run(args) -> int:
     counts = lib.counts()
     if args.json:
         out = {"counts": counts, "rules": RULES} if args.counts else rows
+        if cache_key is not None:
+            from ._output import dumps
+
+            text = dumps(out) + "\n"
+            _cache.store("library", cache_key, text)
+            sys.stdout.write(text)
+            return 0
         print_json(out)
         return 0
     if args.counts:

@@ -11,12 +11,17 @@ def register(subparsers):
             "from brightness-free band ratios, by nested lamp-grouped cross-validation "
             "(3 outer x 2 inner folds). Global search: nlopt MLSL-LDS with L-BFGS on "
             "JAX gradients; local polish: optimistix BFGS. Writes bands.json (searched "
-            "on all lamps), metrics.json (outer-fold test MAE with 95 %% "
+            "on all lamps), metrics.json (outer-fold test MAE with 95 % "
             "lamp-bootstrap intervals), bands.png and manifest.json to --out. "
             "Finished searches are kept in --out/tasks and reused on a rerun."
         ),
     )
-    p.add_argument("--target", required=True, choices=["ler", "g", "cct", "all"])
+    p.add_argument(
+        "--target",
+        required=True,
+        choices=["ler", "g", "cct", "all"],
+        help="what the bands must estimate (all: LER, G and CCT jointly)",
+    )
     p.add_argument(
         "--bands",
         type=int,

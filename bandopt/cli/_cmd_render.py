@@ -17,7 +17,12 @@ def register(subparsers):
             "recall and F1. Adjacency effects are neglected."
         ),
     )
-    p.add_argument("--layout", required=True, metavar="NAME|FILE")
+    p.add_argument(
+        "--layout",
+        required=True,
+        metavar="NAME|FILE",
+        help="shipped layout name or a TOML/JSON layout file",
+    )
     p.add_argument(
         "--gsd",
         type=float,
@@ -32,7 +37,13 @@ def register(subparsers):
         metavar="NAME|FILE",
         help="reference sensor name or band-set JSON (default viirs-dnb)",
     )
-    p.add_argument("--out", required=True, metavar="DIR")
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="output folder; a second run into the same folder is refused while "
+        "the first is running",
+    )
     p.add_argument(
         "--dx",
         type=float,
