@@ -36,6 +36,7 @@ bench: $(STAMP)  ## benchmarks; ratios against baselines of the same run in resu
 	$(BIN)/python -m experiments.bench_search
 	$(BIN)/python -m experiments.bench_spatial
 	$(BIN)/python -m experiments.bench_inversion
+	$(BIN)/python -m experiments.bench_cli
 
 atmospheres: $(STAMP)  ## regenerate the 6S tables (25-50 min on 2 cores; never in make test)
 	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test,atmos]' || true

@@ -196,3 +196,30 @@ def test_csv_reader_chunks_agree_with_one_chunk(tmp_path, monkeypatch):
     # and with numpy's own reader of the same file
     ref = np.loadtxt(f, delimiter=",", skiprows=1)
     np.testing.assert_array_equal(one.wavelength_nm, ref[:, 0])
+
+
+def test_progress_lines_with_time_left(tmp_path, monkeypatch):
+    """A phase longer than FIRST_REPORT_S reports elapsed time; the time left
+    comes from the last run of the same phase (never guessed)."""
+    import io
+    import time
+
+    from bandopt.cli import _progress
+
+    monkeypatch.setenv("BANDOPT_CACHE", str(tmp_path))
+    monkeypatch.setenv("BANDOPT_PROGRESS", "1")
+    monkeypatch.setattr(_progress, "FIRST_REPORT_S", 0.05)
+    monkeypatch.setattr(_progress, "EVERY_S", 0.05)
+    first, second = io.StringIO(), io.StringIO()
+    with _progress.phase("train", "k", stream=first):
+        time.sleep(0.3)
+    assert "elapsed, time left unknown" in first.getvalue()
+    assert _progress.last_duration("k") >= 0.3
+    with _progress.phase("train", "k", stream=second):
+        time.sleep(0.12)
+    assert "left (last run: 0 s)" in second.getvalue()
+    monkeypatch.setenv("BANDOPT_PROGRESS", "0")
+    silent = io.StringIO()
+    with _progress.phase("train", "k", stream=silent):
+        time.sleep(0.12)
+    assert silent.getvalue() == ""

@@ -133,8 +133,11 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 0
     _configure_environment()
+    from . import _progress
+
     try:
-        rc = int(args.func(args) or 0)
+        with _progress.phase(f"bandopt {args.command}", _progress.key_for(argv)):
+            rc = int(args.func(args) or 0)
         sys.stdout.flush()
         return rc
     except BrokenPipeError:

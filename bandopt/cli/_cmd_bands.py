@@ -107,28 +107,41 @@ def _print_table(info: dict) -> None:
             print(f"{field}: {info[field]}")
 
 
-def _lamps(wavelength_nm):
-    """NIST CQS lamp spectra (colour-science, `Ohno2008a`/`Ohno2008b`), peak 1."""
-    import warnings
+LAMPS_SHOWN = (
+    ("HPS", "nist_traditional_hps"),
+    ("LPS", "nist_traditional_lps"),
+    ("metal halide", "metal_halide"),
+    ("white LED (YAG)", "nist_led_phosphor_led_yag"),
+)
+"""Lamps drawn under the bands: NIST CQS spectra (`Ohno2008a`/`Ohno2008b`)
+from the library, which extends them beyond 780 nm to 900 nm
+(`bandopt.datasets.nir`); "metal_halide" takes the first library lamp of
+that class."""
 
+
+def _lamps(wavelength_nm):
+    """The `LAMPS_SHOWN` library spectra on `wavelength_nm`, peak 1, over the
+    whole band range (NIR-extended beyond their measured end)."""
     import numpy as np
 
-    from ..spectra import resample
+    from ..datasets.lamps import library
 
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message='"Matplotlib" related API')
-        import colour
-
+    lib = library()
+    ids = list(lib.ids)
     out = {}
-    for label, key in (
-        ("HPS", "HPS"),
-        ("LPS", "LPS"),
-        ("metal halide", "Metal Halide"),
-        ("white LED (YAG)", "Phosphor LED YAG"),
-    ):
-        sd = colour.SDS_LIGHT_SOURCES[key]
-        v = resample(sd.wavelengths, sd.values, wavelength_nm, outside="nan")
-        out[label] = v / np.nanmax(v)
+    for label, key in LAMPS_SHOWN:
+        if key in ids:
+            i = ids.index(key)
+        else:
+            i = next(
+                (j for j, r in enumerate(lib.records) if r.level2 == key), None
+            )
+            if i is None:
+                continue
+        r = lib.records[i]
+        v = np.interp(wavelength_nm, lib.wavelength_nm, lib.values[i])
+        ext = f", extended beyond {r.measured_range_nm[1]:g} nm" if r.extended else ""
+        out[f"{label} ({r.id}{ext})"] = v / np.nanmax(v)
     return out
 
 
@@ -140,24 +153,25 @@ def plot(bands, info: dict, path: str) -> None:
     import numpy as np
 
     from ..spectra import GRID_1NM
+    from ._plots import band_colour, legend_outside
 
     wl = np.asarray(GRID_1NM)
-    fig, ax = plt.subplots(figsize=(9, 4.5), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(11, 4.5), constrained_layout=True)
     shades = ("0.55", "goldenrod", "0.8", "lightsteelblue")
-    for (label, v), shade in zip(_lamps(wl).items(), shades, strict=True):
-        ax.fill_between(
-            wl, 0, v, color=shade, alpha=0.45, lw=0, label=f"{label} (NIST, to 780 nm)"
-        )
+    for (label, v), shade in zip(_lamps(wl).items(), shades, strict=False):
+        ax.fill_between(wl, 0, v, color=shade, alpha=0.45, lw=0, label=label)
     r = np.asarray(bands.response(wl))
-    colours = plt.get_cmap("tab10")
+    centre = np.asarray(bands.centre_nm, float)
+    fwhm = np.asarray(bands.fwhm_nm, float)
     for i, name in enumerate(bands.names):
-        ax.plot(wl, r[i], lw=2, color=colours(i % 10), label=name)
+        c = band_colour(centre[i], fwhm[i], name)
+        ax.plot(wl, r[i], lw=2, color=c, label=f"{name} ({centre[i]:.0f} nm)")
     ax.set_xlim(wl[0], wl[-1])
     ax.set_ylim(0, 1.05)
     ax.set_xlabel("wavelength [nm]")
-    ax.set_ylabel("relative response / lamp spectrum (peak 1)")
+    ax.set_ylabel("relative response / lamp spectrum (peak 1) [1]")
     ax.set_title(info.get("title", info["name"]))
-    ax.legend(fontsize=7, ncol=2, loc="upper right", framealpha=0.9)
+    legend_outside(ax, fontsize=7)
     fig.savefig(path, dpi=120)
     plt.close(fig)
 

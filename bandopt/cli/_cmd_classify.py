@@ -48,10 +48,77 @@ def register(subparsers):
     )
     p.add_argument("--seed", type=int, default=0, help="noise seed (folds: seed 0)")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="draw the confusion matrices (level 1 and 2, pooled outer-fold test "
+        "scenes) of every band set (png, pdf)",
+    )
     p.set_defaults(func=run)
 
 
 QUICK = dict(surfaces=("asphalt", "grass"), moons=(None,), classes=("P4",))
+
+
+def plot_confusion(results, path, *, noise: bool) -> None:
+    """One row per band set, one column per level: the confusion matrix of the
+    pooled outer-fold test scenes, as the fraction of each true class (rows)
+    given each predicted class (columns, "unknown" = rejected); counts in
+    the cells."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    levels = [lv for lv in ("level1", "level2") if lv in results[0][1]]
+    sizes = [len(results[0][1][lv]["confusion"]) for lv in levels]
+    fig, axes = plt.subplots(
+        len(results),
+        len(levels),
+        figsize=(
+            sum(0.55 * n + 2.5 for n in sizes),
+            0.55 * max(sizes) * len(results) + 2,
+        ),
+        squeeze=False,
+        constrained_layout=True,
+    )
+    im = None
+    for i, (src, res) in enumerate(results):
+        for j, lv in enumerate(levels):
+            ax = axes[i, j]
+            cm = np.asarray(res[lv]["confusion"], float)
+            cols = list(res[lv]["confusion_columns"])
+            rows = cols[: cm.shape[0]]
+            frac = cm / np.maximum(cm.sum(axis=1, keepdims=True), 1.0)
+            im = ax.imshow(frac, cmap="Blues", vmin=0.0, vmax=1.0, aspect="auto")
+            for (r, c), n in np.ndenumerate(cm):
+                if n:
+                    ax.text(
+                        c,
+                        r,
+                        f"{int(n)}",
+                        ha="center",
+                        va="center",
+                        fontsize=6,
+                        color="white" if frac[r, c] > 0.6 else "black",
+                    )
+            ax.set_xticks(range(len(cols)), cols, rotation=60, ha="right", fontsize=7)
+            ax.set_yticks(range(len(rows)), rows, fontsize=7)
+            ax.set_xlabel("predicted class")
+            ax.set_ylabel("true class")
+            ax.set_title(
+                f"{src}, {lv}: macro F1 {res[lv]['macro_f1']:.2f}", fontsize=9
+            )
+    fig.colorbar(
+        im, ax=axes, shrink=0.8, label="fraction of the true class's test scenes [1]"
+    )
+    fig.suptitle(
+        "lamp-type confusion (outer-fold test scenes, "
+        f"noise={'on' if noise else 'off'})"
+    )
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
 
 
 def run(args) -> int:
@@ -67,7 +134,10 @@ def run(args) -> int:
     from ..scene import build_scenarios
     from ..sensor import load_band_set
     from ._checks import band_set_warnings
-    from ._output import print_json
+    from ._output import atomic_path, prepare_file, print_json
+
+    if args.plot:
+        prepare_file(args.plot, "--plot")
 
     band_sets = [(src, load_band_set(src)) for src in args.bands]
     warnings = {
@@ -89,10 +159,12 @@ def run(args) -> int:
             "n_lamps": len(table.lamp_ids),
         },
     }
+    results = []
     for src, bands in band_sets:
         res = evaluate_band_set(
             table, bands, noise=noise, seed=args.seed, kind=args.features
         )
+        results.append((src, res))
         centre = getattr(bands, "centre_nm", None)
         fwhm = getattr(bands, "fwhm_nm", None)
         out["band_sets"].append(
@@ -105,6 +177,9 @@ def run(args) -> int:
                 "warnings": warnings[src],
             }
         )
+    if args.plot:
+        with atomic_path(args.plot) as tmp:
+            plot_confusion(results, tmp, noise=noise)
     if args.json:
         print_json(out)
         return 0

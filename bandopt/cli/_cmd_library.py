@@ -124,6 +124,8 @@ def _plot(lib, rows, path):
         ax.axis("off")
     for ax in axes[-1]:
         ax.set_xlabel("wavelength [nm]")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("spectral power\n(peak 1) [1]")
     fig.suptitle(
         "bandopt lamp library (peak-normalised; dotted: 780 nm, extension beyond)"
     )

@@ -22,6 +22,11 @@ def register(subparsers):
     p.add_argument(
         "--json", action="store_true", help="print a JSON list in input order"
     )
+    p.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="draw the spectra (peak 1) with V(λ) and their LER and CCT (png, pdf)",
+    )
     p.set_defaults(func=run)
 
 
@@ -76,11 +81,52 @@ def _null_reasons(row: dict, visible_power: float) -> dict:
     return row
 
 
+def plot(spectra, rows, path) -> None:
+    """Each spectrum (peak 1) over its measured range, the CIE 1924 photopic
+    V(λ) for reference, LER and CCT in the legend."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from .._photometry_tables import observer_tables
+    from ._plots import legend_outside
+
+    fig, ax = plt.subplots(figsize=(10, 4.5), constrained_layout=True)
+    lo = min(float(s.wavelength_nm[0]) for s in spectra)
+    hi = max(float(s.wavelength_nm[-1]) for s in spectra)
+    for s, r in zip(spectra, rows, strict=True):
+        w, v = np.asarray(s.wavelength_nm), np.asarray(s.values)
+        if w.size > 20000:  # a plot needs no more than ~1 point per 0.05 nm
+            step = int(np.ceil(w.size / 20000))
+            w, v = w[::step], v[::step]
+        ler = "n/a" if r["LER"] is None else f"{r['LER']:.0f} lm/W"
+        cct = "n/a" if r["CCT"] is None else f"{r['CCT']:.0f} K"
+        ax.plot(w, v / v.max(), lw=1.2, label=f"{s.name}: LER {ler}, CCT {cct}")
+    vw, vl, _ = observer_tables()
+    ax.plot(vw, vl, "k--", lw=1, label="V(λ) (CIE 1924)")
+    ax.set_xlim(lo, hi)
+    ax.set_ylim(0, 1.05)
+    ax.set_xlabel("wavelength [nm]")
+    ax.set_ylabel("relative spectral power (peak 1) [1]")
+    ax.set_title("lamp spectra (energy units) and the photopic luminosity function")
+    legend_outside(ax, fontsize=8)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def run(args) -> int:
     from ..datasets.loaders import read_spectrum
-    from ._output import print_json
+    from ._output import atomic_path, prepare_file, print_json
 
-    rows = [spectrum_metrics(read_spectrum(f, unit=args.unit)) for f in args.files]
+    if args.plot:
+        prepare_file(args.plot, "--plot")
+    spectra = [read_spectrum(f, unit=args.unit) for f in args.files]
+    rows = [spectrum_metrics(s) for s in spectra]
+    if args.plot:
+        with atomic_path(args.plot) as tmp:
+            plot(spectra, rows, tmp)
     if args.json:
         print_json(rows)
         return 0
