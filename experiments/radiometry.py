@@ -39,14 +39,13 @@ def load_band_set(source: str, *, results_dir: str | Path = RESULTS):
     `DEFAULT_BAND_SET`), a reference sensor name or a band-set JSON file.
     Returns `(bands, label, note)`."""
     from bandopt import radiometry
-    from bandopt.radiometry._report import _spectral_bands
 
     if str(source).strip().lower() in ("ours", "recommended"):
         path = Path(results_dir) / "recommendation.json"
         spectral = None
         if path.is_file():
             spectral = json.loads(path.read_text()).get("spectral")
-        found = _spectral_bands(spectral, path)
+        found = radiometry.spectral_band_set(spectral, path)
         if found is not None:
             return found, "ours", f"bands from {path} key 'spectral'"
         bands, _, _ = radiometry.load_band_set(DEFAULT_BAND_SET)
@@ -75,8 +74,7 @@ def run(
     """Compute (`bandopt.radiometry.compute`), write `out_dir` and, with
     `recommend`, key "radiometry" of `results_dir`/recommendation.json with
     the mode and settings. Returns the summary."""
-    from bandopt.cli._cmd_radiometry import write_results
-    from bandopt.cli._output import OutputLock
+    from bandopt.cli import OutputLock, write_radiometry_results
     from bandopt.radiometry import compute
     from bandopt.results import update_recommendation
 
@@ -84,7 +82,7 @@ def run(
         result = compute(
             bands, label, config=config, params=params, rule=rule, note=note, log=log
         )
-        write_results(result, lock.directory)
+        write_radiometry_results(result, lock.directory)
     if recommend:
         update_recommendation(
             "radiometry",

@@ -19,12 +19,22 @@ import os
 import pkgutil
 import sys
 
+from ._output import OutputLock as OutputLock  # one run per --out (experiments)
+
 
 EXIT_BAD_INPUT = 2
 EXIT_IO = 1
 EXIT_BROKEN_PIPE = 141
 EXIT_INTERRUPTED = 130
 EXIT_INTERNAL = 70
+
+
+def write_radiometry_results(result: dict, out) -> None:
+    """Write a `bandopt.radiometry.compute` result into folder `out` (the
+    files `bandopt radiometry --out` writes; used by experiments/radiometry.py)."""
+    from ._cmd_radiometry import write_results
+
+    write_results(result, out)
 
 
 def _version() -> str:

@@ -83,7 +83,7 @@ def check_task_files(tasks, out, *, force: bool, log) -> None:
     an edited file) is named; with `force` it is removed and recomputed."""
     import json
 
-    from ..search._sweep import task_path
+    from ..search import task_path
 
     for t in tasks:
         p = task_path(out, t)

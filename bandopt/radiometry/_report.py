@@ -160,7 +160,7 @@ def load_band_set(source: str):
         except (ValueError, UnicodeDecodeError):
             data = None  # the band-set loader names the problem
         if isinstance(data, dict) and "spectral" in data and "bands" not in data:
-            found = _spectral_bands(data["spectral"], p)
+            found = spectral_band_set(data["spectral"], p)
             if found is None:
                 raise ValueError(f"{p}: key 'spectral' holds no band set.")
             return found, "ours", f"bands from {p} key 'spectral'"
@@ -170,7 +170,7 @@ def load_band_set(source: str):
     return found.bands, found.label, found.entry.title
 
 
-def _spectral_bands(spectral, path):
+def spectral_band_set(spectral, path):
     """Find a band set in the "spectral" recommendation: the value itself, or
     its "bands"/"band_set"/"recommended" entry, in `BandSet.from_dict` form."""
     from ..sensor import BandSet
