@@ -18,7 +18,15 @@ def register(subparsers):
             '{"name", "bands": [{"name", "centre_nm", "fwhm_nm", "shape_k"}]}.'
         ),
     )
-    p.add_argument("source", metavar="NAME|FILE", help="reference sensor or JSON file")
+    p.add_argument(
+        "source",
+        nargs="?",
+        metavar="NAME|FILE",
+        help="reference sensor or JSON file (required unless --list)",
+    )
+    p.add_argument(
+        "--list", action="store_true", help="list the reference sensor names"
+    )
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.add_argument(
         "--plot",
@@ -176,10 +184,30 @@ def plot(bands, info: dict, path: str) -> None:
     plt.close(fig)
 
 
+def _list(as_json: bool) -> int:
+    from ..sensor import REFERENCE_SENSORS
+    from ._output import print_json
+
+    rows = [
+        {"name": key, "title": e.title, "n_bands": len(e.build().names)}
+        for key, e in REFERENCE_SENSORS.items()
+    ]
+    if as_json:
+        print_json(rows)
+        return 0
+    for r in rows:
+        print(f"{r['name']:<22}{r['n_bands']:>3} band(s)  {r['title']}")
+    return 0
+
+
 def run(args) -> int:
     from ..sensor import export_response_csv
     from ._output import atomic_path, prepare_file, print_json
 
+    if args.list:
+        return _list(args.json)
+    if args.source is None:
+        raise ValueError("give a band set NAME|FILE, or --list for the names.")
     for opt, path in (("--export-csv", args.export_csv), ("--plot", args.plot)):
         if path:
             prepare_file(path, opt)

@@ -18,8 +18,7 @@ def register(subparsers):
         nargs="+",
         required=True,
         metavar="NAME|FILE",
-        help="reference sensor names (listed by `bandopt bands --help`) or band-set "
-        "JSON files",
+        help="reference sensor names (`bandopt bands --list`) or band-set JSON files",
     )
     p.add_argument(
         "--no-noise",

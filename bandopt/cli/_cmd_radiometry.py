@@ -22,7 +22,7 @@ def register(subparsers):
         "--bands",
         default="sdgsat-1",
         metavar="NAME|FILE",
-        help="reference sensor name (see `bandopt bands --help`), band-set JSON "
+        help="reference sensor name (`bandopt bands --list`), band-set JSON "
         "file, or a recommendation JSON file whose 'spectral' key holds the bands "
         "(e.g. results/recommendation.json) (default: sdgsat-1)",
     )
