@@ -541,7 +541,7 @@ lit to P4, thesis Table 2.3 sensor), 4 lamp partitions x 3 outer folds = 12
 resamples, band counts 1..6 (+ fixed pan), objective weights alpha between
 estimation (0) and classification (1), 12 restarts x 200 Adam steps."""
 
-RUNNER = "bandopt.search._study:run_study_task"
+RUNNER = "bandopt.search:run_study_task"
 
 
 def _study_tasks(args, *, ns=None, alphas=(0.0,), refs=False):

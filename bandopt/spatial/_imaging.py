@@ -22,8 +22,20 @@ GSD; a remainder is cropped.
 
 import math
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 from scipy import ndimage
+
+from ..sensor import (
+    SensorParams,
+    add_photon_noise,
+    dequantise,
+    quantise,
+    responsivity,
+)
+from ..spectra import GRID_1NM
+from ._render import Grid
 
 
 GSDS_M = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0)
@@ -111,8 +123,6 @@ def resample_to_gsd(
 
 def gsd_grid(grid, gsd_m: float):
     """The coarse grid of `resample_to_gsd` (same origin, cropped)."""
-    from ._render import Grid
-
     f = _factor(gsd_m, grid.dx_m)
     return Grid(grid.x0_m, grid.y0_m, grid.nx // f, grid.ny // f, float(gsd_m))
 
@@ -139,18 +149,6 @@ def sensor_image(
     photon noise from `jax.random.PRNGKey(seed)`; quantisation with
     `bit_depth` bits between the detection limit and saturation (None: off).
     """
-    import jax
-    import jax.numpy as jnp
-
-    from ..sensor import (
-        SensorParams,
-        add_photon_noise,
-        dequantise,
-        quantise,
-        responsivity,
-    )
-    from ..spectra import GRID_1NM
-
     wl = np.asarray(GRID_1NM if wavelength_nm is None else wavelength_nm, float)
     params = params or SensorParams.for_gsd(gsd_m)
     resp = np.asarray(

@@ -48,7 +48,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..datasets.surfaces import resolve_surface
 from ..names import canonical_key
+from ..scene import class_illuminance_lx
 
 
 ARRANGEMENTS = ("single", "single-sided", "staggered", "opposite", "central-twin")
@@ -336,8 +338,6 @@ def layout_from_dict(data: dict, *, label: str = "<dict>", base_dir=None) -> Lay
             raise ValueError(f"{label}: field {k!r} must be > 0, got {v!r}.")
     surfaces = _field(data, "surfaces", label, dict, default={})
     _unknown(surfaces, {"road", "sidewalk", "verge"}, f"{label}: surfaces")
-    from ..datasets.surfaces import resolve_surface
-
     surf = {"road": "asphalt", "sidewalk": "sidewalk", "verge": "grass"}
     for k in surfaces:
         try:
@@ -406,8 +406,6 @@ def layout_from_dict(data: dict, *, label: str = "<dict>", base_dir=None) -> Lay
     if any(p.flux_lm is None for p in lamps) and lclass is None:
         raise ValueError(f"{label}: lamps without 'flux_lm' need 'lighting_class'.")
     if lclass is not None:
-        from ..scene import class_illuminance_lx
-
         try:
             class_illuminance_lx(lclass)
         except ValueError as err:

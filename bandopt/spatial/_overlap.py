@@ -16,6 +16,9 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 
+from ..classify import predict_lamp_types
+from ..datasets.lamps import library
+from ..spectra import GRID_1NM
 from ._imaging import resample_to_gsd, sensor_image
 from ._render import (
     SceneImage,
@@ -59,8 +62,6 @@ class OverlapScore:
 
 def per_type_radiance(scene: SceneImage, bands) -> np.ndarray:
     """(t, b, ny, nx) TOA band radiance of each lamp type of `scene`."""
-    from ..spectra import GRID_1NM
-
     lamps, grid = scene.lamps, scene.grid
     e = illuminance_images(lamps, grid, cull_fraction=scene.config["cull_fraction"])
     up = uplight_images(lamps, grid)
@@ -103,10 +104,7 @@ def lamp_type_f1_when_overlapping(
 
     `per_type` (from `per_type_radiance`) can be passed to reuse it across GSDs.
     """
-    from sklearn.metrics import f1_score
-
-    from ..classify import predict_lamp_types
-    from ..datasets.lamps import library
+    from sklearn.metrics import f1_score  # sklearn: start-up time
 
     per_type = per_type_radiance(scene, bands) if per_type is None else per_type
     dx = scene.grid.dx_m

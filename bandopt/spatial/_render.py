@@ -43,6 +43,10 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from ..datasets import atmosphere as atm
+from ..datasets.lamps import library
+from ..datasets.surfaces import mean_reflectance
+from ..scene import band_weights, class_illuminance_lx
 from ..spectra import GRID_1NM
 from ._layout import Layout
 from ._luminaire import Luminaire, lookup_cd_per_lm, luminaire, stack_tables
@@ -329,8 +333,6 @@ def resolve_flux(
     (`bandopt.scene.class_illuminance_lx`; M classes via `E = L / Q0`). All such
     lamps share one scale; lamps with a given flux keep it. The average is
     taken on a grid fitted to the road (step at most `max_dx_m`)."""
-    from ..scene import class_illuminance_lx
-
     lamps = lamps or lamp_arrays(layout)
     free = ~np.isfinite(lamps.flux_lm)
     if not free.any():
@@ -377,11 +379,6 @@ def band_factors(
     `w_b` from `bandopt.scene.band_weights` (band-averaged, Eq. 2.14) and
     surfaces in `SURFACE_ROLES` order.
     """
-    from ..datasets import atmosphere as atm
-    from ..datasets.lamps import library
-    from ..datasets.surfaces import mean_reflectance
-    from ..scene import band_weights
-
     wl = np.asarray(wavelength_nm, float)
     lib = library(wavelength_nm=wl)
     s = np.stack([lib.values[lib.index(t)] for t in lamp_types])
