@@ -79,6 +79,33 @@ def update_recommendation(
     return path
 
 
+def recommended_band_set(key: str, *, results_dir: str | Path | None = None):
+    """The band set experiment `key` (`"spectral"`, `"classification"`)
+    recommended: `recommendation.json[key]["band_set"]`, the
+    `BandSet.to_dict()` form every experiment writes. None when the file or
+    the key is absent; a key without a readable `band_set` is a `ValueError`
+    naming the file and the key (the one reader: no guessing between fields).
+    """
+    # sensor (JAX) only when a band set is read: the report reads results
+    # without it
+    from .sensor import BandSet
+
+    root = Path(results_dir) if results_dir is not None else RESULTS_DIR
+    path = root / RECOMMENDATION
+    if not path.is_file():
+        return None
+    entry = json.loads(path.read_text()).get(key)
+    if entry is None:
+        return None
+    data = entry.get("band_set") if isinstance(entry, dict) else None
+    if not isinstance(data, dict):
+        raise ValueError(
+            f"{path}: key {key!r} has no 'band_set' object (BandSet.to_dict form); "
+            f"re-run the experiment that writes {key!r}."
+        )
+    return BandSet.from_dict(data, label=f"{path}:{key}.band_set")
+
+
 README = "README.md"
 
 

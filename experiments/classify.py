@@ -69,31 +69,12 @@ def _write_csv(path: Path, rows: list[dict]) -> None:
 
 def _spectral_bands(results_dir: Path):
     """Band set of key "spectral" of recommendation.json, if present."""
-    from bandopt.sensor import BandSet
+    from bandopt.results import recommended_band_set
 
-    path = results_dir / "recommendation.json"
-    if not path.is_file():
-        return None, "results/recommendation.json absent"
-    data = json.loads(path.read_text()).get("spectral")
-    if not data:
-        return None, "no 'spectral' key in results/recommendation.json"
-    for cand in (data.get("bands"), data.get("band_set"), data):
-        if isinstance(cand, dict):
-            try:
-                return BandSet.from_dict(
-                    cand, label="recommendation.json:spectral"
-                ), "ok"
-            except (ValueError, KeyError, TypeError):
-                continue
-    cands = data.get("band_sets") if isinstance(data, dict) else None
-    if isinstance(cands, (list, dict)):
-        items = cands.values() if isinstance(cands, dict) else cands
-        for c in items:
-            try:
-                return BandSet.from_dict(c, label="recommendation.json:spectral"), "ok"
-            except (ValueError, KeyError, TypeError):
-                continue
-    return None, "could not read a band set from key 'spectral'"
+    bands = recommended_band_set("spectral", results_dir=results_dir)
+    if bands is None:
+        return None, "no 'spectral' band set in results/recommendation.json"
+    return bands, "ok"
 
 
 def run_searches(table_search, table_eval, budget, log):

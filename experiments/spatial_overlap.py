@@ -19,16 +19,12 @@ GSDS_M = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0)
 
 
 def _bands(results: Path):
-    from bandopt.sensor import BandSet, reference_sensor
+    from bandopt.results import recommended_band_set
+    from bandopt.sensor import reference_sensor
 
-    rec = results / "recommendation.json"
-    if rec.is_file():
-        data = json.loads(rec.read_text()).get("classification", {})
-        bands = data.get("bands") or data.get("band_set", {}).get("bands")
-        if bands:
-            return BandSet.from_physical(
-                [b["centre_nm"] for b in bands], [b["fwhm_nm"] for b in bands],
-                name="classification"), "results/recommendation.json classification"
+    bands = recommended_band_set("classification", results_dir=results)
+    if bands is not None:
+        return bands, "results/recommendation.json classification"
     return reference_sensor("sdgsat-1"), "sdgsat-1 (no classification bands found)"
 
 
