@@ -451,7 +451,7 @@ def write_report(out: Path, d: dict) -> Path:
 
 
 def main(argv=None) -> int:
-    from bandopt._config import configure
+    from bandopt import configure
 
     configure()
     from bandopt.classify import (
