@@ -237,3 +237,24 @@ def test_simulate_cli_uplight_model_and_neighbourhood(tmp_path):
     # uplight 1/(2π) (isotropic 50 % profile) against 1/π (Lambertian u/(1-u))
     assert uplight_factor(0.5) < uplight_factor(0.5, model="lambertian")
     assert np.all(frames["profile"] < frames["lambertian"])
+
+
+def test_band_radiance_inputs(scen, bands):
+    """Spectra need their grid; a response array on the grid equals the band
+    set; noise draws of the wrong shape are refused; factors and dense spectra
+    agree (uncropped: same quadrature)."""
+    from bandopt.forward import band_radiance, dense_spectra
+
+    toa = np.asarray(dense_spectra(scen)).reshape(-1, scen.factors.wavelength_nm.size)
+    wl = np.asarray(scen.factors.wavelength_nm)
+    with pytest.raises(ValueError, match="wavelength_nm is required"):
+        band_radiance(toa, bands)
+    a = np.asarray(band_radiance(toa, bands, wavelength_nm=wl))
+    b = np.asarray(band_radiance(toa, bands.response(wl), wavelength_nm=wl))
+    np.testing.assert_array_equal(a, b)
+    c = np.asarray(band_radiance(scen, bands, crop=False)).reshape(a.shape)
+    np.testing.assert_allclose(c, a, rtol=1e-10)
+    with pytest.raises(ValueError, match="noise draws must have shape"):
+        band_radiance(toa, bands, wavelength_nm=wl, noise=np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="response array"):
+        band_radiance(toa, np.ones((3, 5)), wavelength_nm=wl)
