@@ -81,10 +81,8 @@ def _atmosphere(cfg: Config):
         return None, "none requested"
     from bandopt.datasets import atmosphere as atm
 
-    try:
-        atm.transmittance("up", *cfg.atmosphere, 0.0, [550.0])
-    except (FileNotFoundError, ValueError) as err:
-        return None, f"6S tables unavailable ({err}); rendered without atmosphere"
+    if not atm.tables_available():
+        return None, "6S tables not installed (`make atmospheres`); rendered without"
     return cfg.atmosphere, "6S upward total transmittance at nadir"
 
 
