@@ -1,5 +1,7 @@
 """`bandopt optimise`: search the bands that best estimate LER, G and/or CCT."""
 
+from ._output import add_locked_out
+
 
 def register(subparsers):
     p = subparsers.add_parser(
@@ -60,13 +62,7 @@ def register(subparsers):
         action="store_true",
         help="only the all-lamp search (no test errors; faster)",
     )
-    p.add_argument(
-        "--out",
-        required=True,
-        metavar="DIR",
-        help="output folder; a second run into the same folder is refused while "
-        "the first is running",
-    )
+    add_locked_out(p)
     p.add_argument(
         "--force",
         action="store_true",

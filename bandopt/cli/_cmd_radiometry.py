@@ -1,6 +1,8 @@
 """`bandopt radiometry`: detection limit, saturation, SNR/NER and bit depth of a
 band set (thesis section 4.2)."""
 
+from ._output import add_locked_out
+
 
 def register(subparsers):
     p = subparsers.add_parser(
@@ -26,13 +28,7 @@ def register(subparsers):
         "file, or a recommendation JSON file whose 'spectral' key holds the bands "
         "(e.g. results/recommendation.json) (default: sdgsat-1)",
     )
-    p.add_argument(
-        "--out",
-        required=True,
-        metavar="DIR",
-        help="output folder; a second run into the same folder is refused while "
-        "the first is running",
-    )
+    add_locked_out(p)
     p.add_argument(
         "--quick",
         action="store_true",

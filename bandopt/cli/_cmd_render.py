@@ -1,5 +1,7 @@
 """`bandopt render`: render a road-lighting layout and see it at one or more GSDs."""
 
+from ._output import add_locked_out
+
 
 def register(subparsers):
     p = subparsers.add_parser(
@@ -37,13 +39,7 @@ def register(subparsers):
         metavar="NAME|FILE",
         help="reference sensor name or band-set JSON (default viirs-dnb)",
     )
-    p.add_argument(
-        "--out",
-        required=True,
-        metavar="DIR",
-        help="output folder; a second run into the same folder is refused while "
-        "the first is running",
-    )
+    add_locked_out(p)
     p.add_argument(
         "--dx",
         type=float,

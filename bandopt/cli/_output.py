@@ -180,3 +180,14 @@ def write_manifest(directory, **kwargs) -> Path:
         Path(directory) / "manifest.json",
         json.dumps(manifest(**kwargs), indent=2, default=str) + "\n",
     )
+
+
+def add_locked_out(parser) -> None:
+    """The `--out DIR` option of commands that lock their output folder."""
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="output folder; a second run into the same folder is refused while "
+        "the first is running",
+    )
