@@ -4,9 +4,12 @@ A pixel's band radiance is modelled as the forward model builds it
 (`bandopt.scene`): lamp spectrum x surface reflectance x upward transmittance,
 plus moonlight on the same surface and the Moon's path radiance,
 
-    y_b = α Σ_λ W_bλ T(λ) ρ(λ) S(λ)/π + β Σ_λ W_bλ [T ρ M/π + P](λ),  α, β ≥ 0,
+    y_b = α Σ_λ W_bλ T_e(λ) ρ(λ) S(λ)/π + β Σ_λ W_bλ [T ρ M/π + P](λ),  α, β ≥ 0,
 
-with `W` the band weights (`scene.band_weights`), `S` a lamp spectrum per
+with `W` the band weights (`scene.band_weights`), `T` the upward transmittance,
+`T_e = T_dir + k T_dif` the lamp light's transmittance in the scenes'
+neighbourhood (`scene.Factors.emission_transmittance`; `T_e = T` for a uniform
+neighbourhood), `S` a lamp spectrum per
 lumen, `M`, `P` the Moon's ground irradiance and path radiance, `α` the
 illuminance and `β` the Moon's brightness. Nothing is assumed about the
 pixel's brightness: `α` and `β` are solved for in closed form.
@@ -141,11 +144,17 @@ class Conditions:
     """What the inversion knows of the scene besides lamp and surface.
 
     - `wavelength_nm`: grid. (w,) [nm]
-    - `t_up`: upward transmittance of each candidate atmosphere. (a, w) [1]
+    - `t_up`: upward (total) transmittance of each candidate atmosphere; the
+      Moon's light reaches the sensor through it (the whole neighbourhood is
+      moonlit). (a, w) [1]
     - `moon`: Moon's irradiance on the ground `T_down E_moon cos θ` of its
       brightest state, or None for moonless scenes. (a, w) [W m⁻² nm⁻¹]
     - `path`: the Moon's path radiance, same state, or None. (a, w)
     - `labels`: atmosphere labels.
+    - `t_lamp`: transmittance of the lamp light reflected in the pixel,
+      `T_dir + k T_dif` for a neighbourhood whose lamp light is `k` times the
+      pixel's (`scene.Factors.emission_transmittance`), or None for a uniform
+      neighbourhood (`t_up`). (a, w) [1]
     """
 
     wavelength_nm: np.ndarray
@@ -153,10 +162,18 @@ class Conditions:
     moon: np.ndarray | None
     path: np.ndarray | None
     labels: tuple[str, ...]
+    t_lamp: np.ndarray | None = None
+
+    @property
+    def lamp_transmittance(self) -> np.ndarray:
+        """`t_lamp`, or `t_up` for a uniform neighbourhood. (a, w) [1]"""
+        return self.t_up if self.t_lamp is None else self.t_lamp
 
     @classmethod
     def from_scenarios(cls, scen) -> "Conditions":
-        """Atmospheres and the brightest Moon state of a `scene.ScenarioSet`."""
+        """Atmospheres, neighbourhood and the brightest Moon state of a
+        `scene.ScenarioSet`. A neighbourhood with its own background surface
+        is approximated by the pixel's surface (`T_dir + k T_dif`)."""
         f = scen.factors
         moon = path = None
         if f.moon_ground is not None:
@@ -171,6 +188,9 @@ class Conditions:
             moon,
             path,
             tuple(scen.atmosphere_labels),
+            None
+            if f.t_dir is None
+            else np.asarray(f.emission_transmittance(), float),
         )
 
     @classmethod
@@ -315,12 +335,13 @@ def lamp_prior(ids, spectra, level1, level2, wavelength_nm) -> LampPrior:
 def _design(spectra, weights, cond: Conditions, basis: SurfaceBasis):
     """Band terms: lamp x surface `A (k, a, b, r+1)`, Moon `Q (a, b, r+1)`."""
     rho = np.vstack([basis.mean, basis.basis]) / math.pi  # (r+1, w)
-    tw = cond.t_up[:, None, :] * weights[None]  # (a, b, w)
+    lw = cond.lamp_transmittance[:, None, :] * weights[None]  # (a, b, w)
     a = jnp.einsum(
-        "kw,abw,rw->kabr", spectra, tw, rho, precision=jax.lax.Precision.HIGHEST
+        "kw,abw,rw->kabr", spectra, lw, rho, precision=jax.lax.Precision.HIGHEST
     )
     if cond.moon is None:
         return np.asarray(a), None
+    tw = cond.t_up[:, None, :] * weights[None]  # (a, b, w)
     q = np.einsum("aw,abw,rw->abr", cond.moon, tw, rho)
     if cond.path is not None:
         q[..., 0] += np.einsum("aw,bw->ab", cond.path, weights)

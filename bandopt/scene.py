@@ -30,11 +30,10 @@ with, per term:
   background surface; the whole neighbourhood is moonlit. Luminaire uplight
   and fires scale with `k` like the lamp light (a stated simplification).
   ``"lit_street_dark_district"`` (k = 0.1, the pixel's surface) is a lit
-  street at the ~10 m GSD this project recommends in a dark district;
-  ``"uniform"`` reproduces the total-transmittance model exactly. The default
-  (`DEFAULT_NEIGHBOURHOOD`) is still ``"uniform"`` so that existing callers
-  and results keep their numbers; a study at 10-100 m GSD should ask for a
-  stated neighbourhood (``neighbourhood="lit_street_dark_district"``).
+  street at the ~10 m GSD this project recommends in a dark district, and
+  the default (`DEFAULT_NEIGHBOURHOOD`); ``"uniform"`` reproduces the
+  total-transmittance model of the thesis exactly and is what a coarse
+  sensor (VIIRS, 750 m) over a uniformly lit city sees.
 - `ρ(λ)`: Lambertian surface reflectance (`bandopt.datasets.surfaces`); a
   mixed pixel (`surfaces` entry ``(a, b, fraction)``) has the area-weighted
   mean reflectance.
@@ -235,12 +234,15 @@ measurement. Its lamp radiance is the `isolated` one times
 and `uniform` a lot. `isolated`: nothing lit around the pixel (direct
 transmittance only for lamp light)."""
 
-DEFAULT_NEIGHBOURHOOD = "uniform"
-"""Neighbourhood of `build_scenarios` by default: ``"uniform"``, the
-total-transmittance model of earlier versions, so that existing callers keep
-their numbers. It is right for coarse pixels (VIIRS, 750 m); at the 10-100 m
-GSD this project recommends it over-states lamp radiance by 9-91 % (6S
-total/direct, issue 11 defect 3): pass ``neighbourhood=`` explicitly there."""
+DEFAULT_NEIGHBOURHOOD = "lit_street_dark_district"
+"""Neighbourhood of `build_scenarios` by default: a lit street at the ~10 m
+GSD this project recommends, in a dark district (k = 0.1). The
+total-transmittance model of the thesis and of earlier versions (``"uniform"``)
+is right for coarse pixels (VIIRS, 750 m) over a uniformly lit city; at 10-100
+m GSD it over-states lamp radiance by 9-91 % (6S total/direct, issue 11 defect
+3), so it is no longer the default: ask for it with
+``neighbourhood="uniform"``. Results made before this change used
+``"uniform"``; `results/README.md` gives the numbers before and after."""
 
 
 def resolve_neighbourhood(neighbourhood: "str | Neighbourhood") -> Neighbourhood:

@@ -230,3 +230,45 @@ def test_shared_candidate_fast_path_matches_per_pixel_path(lamps, basis):
     slow = inv_mod._score(y, cand2, lps, a, q, inv.prior.log_prior, [0.01, 0.1])
     np.testing.assert_allclose(fast[0][1:], slow[0][1:], rtol=1e-10, atol=1e-10)
     np.testing.assert_allclose(fast[1][1:], slow[1][1:], rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("hood", ["lit_street_dark_district", "uniform"])
+def test_design_matches_the_scene_in_its_neighbourhood(hood):
+    """The inversion's lamp x surface term is the scene's `lamp_surface` band
+    radiance in the scenes' neighbourhood (`T_dir + k T_dif` for a lit street
+    in a dark district, not the total `T_up`), and its Moon term uses `T_up`."""
+    import jax.numpy as jnp
+
+    from bandopt.scene import band_terms, band_weights, build_scenarios
+
+    s = build_scenarios(
+        lamps=("nist_traditional_hps", "cie_led_b3"),
+        surfaces=("asphalt",),
+        atmospheres=(("tropical", "urban", 5.0),),
+        moons=("full",),
+        classes=("P4",),
+        neighbourhood=hood,
+    )
+    f = s.factors
+    wl = np.asarray(f.wavelength_nm)
+    w = np.asarray(
+        band_weights(jnp.asarray(FIVE.response(jnp.asarray(wl))), jnp.asarray(wl))
+    )
+    cond = inv_mod.Conditions.from_scenarios(s)
+    assert (cond.t_lamp is None) == (hood == "uniform")
+    refl = np.asarray(f.reflectance)[0]
+    one = inv_mod.SurfaceBasis(
+        wl, refl, np.zeros((1, wl.size)), np.ones(1), ("asphalt",), np.zeros((1, 1))
+    )
+    a, q = inv_mod._design(np.asarray(f.lamp), w, cond, one)
+    terms = band_terms(f, jnp.asarray(w))
+    np.testing.assert_allclose(
+        a[:, 0, :, 0], np.asarray(terms.lamp_surface)[:, 0, 0], rtol=1e-10
+    )
+    np.testing.assert_allclose(
+        q[0, :, 0] - np.asarray(terms.path)[0, 0],
+        np.asarray(terms.moon)[0, 0, 0],
+        rtol=1e-10,
+    )
+    if hood != "uniform":  # the lamp term is below the total-transmittance one
+        assert np.all(cond.t_lamp < cond.t_up)

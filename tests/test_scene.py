@@ -320,18 +320,16 @@ def test_adjacency_is_linear_in_lit_fraction_and_bounded():
 
 
 def test_default_neighbourhood_and_the_dark_district():
-    # the default stays the total-transmittance model (documented in
-    # DEFAULT_NEIGHBOURHOOD); the lit street in a dark district is asked for
-    s = build_scenarios(lamps=LAMPS[:1], surfaces=("asphalt",), moons=())
-    assert scene.DEFAULT_NEIGHBOURHOOD == "uniform"
+    # the default is the lit street in a dark district at ~10 m GSD (issue 11
+    # defect 3); the total-transmittance model of the thesis is asked for
+    s = build_scenarios(
+        lamps=LAMPS[:1], surfaces=("asphalt",), moons=(), neighbourhood="uniform"
+    )
+    assert scene.DEFAULT_NEIGHBOURHOOD == "lit_street_dark_district"
     assert s.config["neighbourhood"]["name"] == "uniform"
     assert s.factors.t_dir is None
-    d = build_scenarios(
-        lamps=LAMPS[:1],
-        surfaces=("asphalt",),
-        moons=(),
-        neighbourhood="lit_street_dark_district",
-    )
+    d = build_scenarios(lamps=LAMPS[:1], surfaces=("asphalt",), moons=())
+    assert d.factors.t_dir is not None
     hood = d.config["neighbourhood"]
     assert hood["lit_fraction"] == 0.1 and hood["relative_illuminance"] == 1.0
     assert float(d.factors.neighbour_lamp) == pytest.approx(0.1)
