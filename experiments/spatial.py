@@ -215,7 +215,9 @@ def main(cfg: Config, out: Path) -> dict:
         "thesis": "about 10 m in most cases (De Meester 2019, section 4.3)",
         "assumptions": [
             "nadir view, flat Lambertian ground, single bounce, point luminaires",
-            "adjacency effects and lamp-light path radiance neglected",
+            "adjacency: T_dir L(x) + k T_dif <L>_tile with the default "
+            "neighbourhood (lit street in a dark district, k = 0.1; "
+            "bandopt.spatial.render); lamp-light path radiance neglected",
             "PSF Gaussian with FWHM = 1 GSD, box pixel, photon noise (Table 2.3 "
             "sensor, integration time from GSD at 600 km), 14-bit, saturation 1e-3",
             "DoG thresholds fixed in advance, identical for every GSD and scene",

@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from bandopt.scene import class_illuminance_lx
+from bandopt.scene import Neighbourhood, class_illuminance_lx
 from bandopt.sensor import BandSet
 from bandopt.spatial import (
     Grid,
@@ -347,3 +347,37 @@ def test_road_optic_throws_along_the_road():
     assert along > across > behind
     assert road_optic().uplight_fraction == pytest.approx(0.0, abs=1e-12)
     assert cutoff(60.0).uplight_fraction == pytest.approx(0.0, abs=1e-12)
+
+
+def test_adjacency_split_and_the_uniform_neighbourhood():
+    """With an atmosphere a pixel sees its own ground through T_dir and k times
+    the tile's mean through T_dif; "uniform" is the total-transmittance image
+    of earlier versions, "isolated" the direct part alone."""
+    lamps = (
+        LampPlacement(30.0, -2.5, 8.0, "road-optic", "nist_traditional_hps", 8000.0),
+        LampPlacement(52.0, 2.5, 10.0, "lop-50", "cie_led_b3", 5000.0, 180.0),
+    )
+    lay = Layout("mix", lamps, length_m=80.0, width_m=40.0)
+    atm = ("tropical", "urban", 5.0)
+    kw = dict(dx_m=1.0, atmosphere=atm)
+    uni = render(lay, _bands(), neighbourhood="uniform", **kw).radiance
+    iso = render(lay, _bands(), neighbourhood="isolated", **kw).radiance
+    lit = render(lay, _bands(), **kw)
+    none = render(lay, _bands(), dx_m=1.0, atmosphere=None).radiance
+    assert lit.config["neighbourhood"]["name"] == "lit_street_dark_district"
+    # uniform - isolated = (T_up - T_dir) L(x) = T_dif L(x)
+    diffuse = uni - iso
+    assert np.all(diffuse >= 0) and np.any(diffuse > 0)
+    np.testing.assert_allclose(
+        lit.radiance, iso + 0.1 * diffuse.mean(axis=(1, 2), keepdims=True), rtol=1e-9
+    )
+    # the adjacency term blurs: lit pixels lose, dark pixels gain against uniform
+    peak = np.unravel_index(np.argmax(none[0]), none[0].shape)
+    assert lit.radiance[0][peak] < uni[0][peak]
+    dark = np.unravel_index(np.argmin(none[0]), none[0].shape)
+    assert lit.radiance[0][dark] >= iso[0][dark]
+    # the diffuse part is largest in the blue (Rayleigh): 6S total/direct
+    ratio = uni.sum(axis=(1, 2)) / iso.sum(axis=(1, 2))
+    assert ratio[0] > ratio[1] > ratio[2] > 1.0
+    with pytest.raises(ValueError, match="background surface"):
+        render(lay, _bands(), neighbourhood=Neighbourhood(0.1, 1.0, "snow"), **kw)

@@ -69,6 +69,15 @@ def register(subparsers):
         metavar=("ATMOSPHERE", "AEROSOL", "VIS_KM"),
         help="6S table for T_up, e.g. midlatitude_summer urban 23 (default: none)",
     )
+    p.add_argument(
+        "--neighbourhood",
+        default=None,
+        metavar="NAME",
+        help="adjacency: what the diffuse upward transmittance sees around the "
+        "tile: lit_street_dark_district (default; k = 0.1 of the tile's mean), "
+        "isolated (direct only) or uniform (total transmittance per pixel); "
+        "only with --atmosphere",
+    )
     p.set_defaults(func=run)
 
 
@@ -149,6 +158,13 @@ def run(args) -> int:
             raise ValueError(
                 f"--atmosphere: visibility {vis!r} is not a number"
             ) from None
+    if args.neighbourhood is not None:
+        from ..scene import resolve_neighbourhood
+
+        try:
+            resolve_neighbourhood(args.neighbourhood)
+        except ValueError as err:
+            raise ValueError(f"--neighbourhood: {err}") from None
     for g in args.gsd:
         if g <= 0 or abs(g / args.dx - round(g / args.dx)) > 1e-6:
             raise ValueError(
@@ -168,7 +184,15 @@ def _render(args, layout, bands, atmosphere, out) -> int:
     from ._output import atomic_path, atomic_write_json, print_json, write_manifest
 
     log = sys.stderr if args.json else sys.stdout
-    scene = render(layout, bands, dx_m=args.dx, atmosphere=atmosphere)
+    from ..scene import DEFAULT_NEIGHBOURHOOD
+
+    scene = render(
+        layout,
+        bands,
+        dx_m=args.dx,
+        atmosphere=atmosphere,
+        neighbourhood=args.neighbourhood or DEFAULT_NEIGHBOURHOOD,
+    )
     truth = true_targets(scene)
     rows = []
     for g in args.gsd:

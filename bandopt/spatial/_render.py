@@ -11,14 +11,26 @@ spectral radiance is `ρ_s(λ)/π Σ_l E_l S_l(λ)` with `S_l` the lamp spectrum
 per lumen [W nm⁻¹ lm⁻¹] (`bandopt.datasets.lamps`). Light a luminaire sends
 straight up, `Φ I(·, 180°) S_l` [W sr⁻¹ nm⁻¹], is seen directly by a
 nadir-viewing sensor; it is spread over the ground pixel below the luminaire,
-giving radiance `Φ I(·,180°) S_l / Δx²`. Both are multiplied by the one-way
-upward transmittance `T_up(λ)` (a 6S table, `bandopt.datasets.atmosphere`;
-`None`: no atmosphere) and reduced to band-averaged radiance with
-`bandopt.scene.band_weights` (thesis Eq. 2.14). The result is top-of-
-atmosphere radiance [W m⁻² sr⁻¹ nm⁻¹].
+giving radiance `Φ I(·,180°) S_l / Δx²`. Both reach the sensor through the
+atmosphere (a 6S table, `bandopt.datasets.atmosphere`; `None`: no atmosphere)
+and are reduced to band-averaged radiance with `bandopt.scene.band_weights`
+(thesis Eq. 2.14). The result is top-of-atmosphere radiance
+[W m⁻² sr⁻¹ nm⁻¹].
 
-Neglected, and said so: adjacency (light scattered by the atmosphere from one
-pixel into another), path radiance of lamp light, shadows and occlusion by
+**Adjacency** (the pixel/background split of 6S, `Vermote1997`, as in
+`bandopt.scene`): a pixel's own ground-leaving radiance `L(x)` arrives through
+the direct transmittance; the diffuse part sees the adjacency footprint
+(~1 km), whose mean radiance is taken as `k` times the rendered tile's mean,
+
+    L_toa(x) = T_dir L(x) + k T_dif <L>_tile,
+
+with `k` the neighbourhood's lamp factor (`scene.Neighbourhood.lamp_factor`;
+0.1 for the default ``"lit_street_dark_district"``, 0 for ``"isolated"``).
+``"uniform"`` is the total-transmittance model `T_up L(x)` of earlier versions
+(exactly; tested). A stated modelling choice: the tile (tens to hundreds of
+metres) is a small part of the footprint, whose lit fraction is not rendered.
+
+Neglected, and said so: path radiance of lamp light, shadows and occlusion by
 poles, cars and buildings, inter-reflection, the luminaire's size (point
 sources), and off-nadir views. Pixels are sampled at their centres (the fine
 grid must resolve the light pools; 0.25 m by default).
@@ -46,7 +58,12 @@ from jaxtyping import Array, ArrayLike, Float
 from ..datasets import atmosphere as atm
 from ..datasets.lamps import library
 from ..datasets.surfaces import mean_reflectance
-from ..scene import band_weights, class_illuminance_lx
+from ..scene import (
+    DEFAULT_NEIGHBOURHOOD,
+    band_weights,
+    class_illuminance_lx,
+    resolve_neighbourhood,
+)
 from ..spectra import GRID_1NM
 from ._layout import Layout
 from ._luminaire import Luminaire, lookup_cd_per_lm, luminaire, stack_tables
@@ -371,13 +388,16 @@ def band_factors(
     wavelength_nm: np.ndarray = GRID_1NM,
     atmosphere: tuple[str, str, float] | None = None,
     view_zenith_deg: float = 0.0,
+    part: str = "total",
 ) -> tuple[np.ndarray, np.ndarray]:
     """Band-averaged radiance per unit illuminance and per unit uplight.
 
-    Returns `K_ground` (t, s, b) [W m⁻² sr⁻¹ nm⁻¹ lx⁻¹] = `Σ_λ w_b T_up ρ_s/π S_t`
-    and `K_up` (t, b) [W m⁻² sr⁻¹ nm⁻¹ per cd m⁻²] = `Σ_λ w_b T_up S_t`, with
-    `w_b` from `bandopt.scene.band_weights` (band-averaged, Eq. 2.14) and
-    surfaces in `SURFACE_ROLES` order.
+    Returns `K_ground` (t, s, b) [W m⁻² sr⁻¹ nm⁻¹ lx⁻¹] = `Σ_λ w_b T ρ_s/π S_t`
+    and `K_up` (t, b) [W m⁻² sr⁻¹ nm⁻¹ per cd m⁻²] = `Σ_λ w_b T S_t`, with
+    `w_b` from `bandopt.scene.band_weights` (band-averaged, Eq. 2.14),
+    surfaces in `SURFACE_ROLES` order and `T` the upward transmittance's
+    `part` (``"total"``, ``"direct"`` or ``"diffuse"``; without an atmosphere
+    the direct part is 1 and the diffuse 0).
     """
     wl = np.asarray(wavelength_nm, float)
     lib = library(wavelength_nm=wl)
@@ -385,11 +405,14 @@ def band_factors(
     if not np.all(np.isfinite(s)):
         raise ValueError("A lamp spectrum has no data on part of the wavelength grid.")
     _, rho = mean_reflectance([surfaces[r] for r in SURFACE_ROLES], wl)
-    t_up = (
-        np.ones_like(wl)
-        if atmosphere is None
-        else atm.transmittance("up", *atmosphere, view_zenith_deg, wl)
-    )
+    if part not in ("total", "direct", "diffuse"):
+        raise ValueError(
+            f"Unknown transmittance part {part!r}; expected total, direct or diffuse."
+        )
+    if atmosphere is None:
+        t_up = np.zeros_like(wl) if part == "diffuse" else np.ones_like(wl)
+    else:
+        t_up = atm.transmittance("up", *atmosphere, view_zenith_deg, wl, part=part)
     w = np.asarray(band_weights(jnp.asarray(response), jnp.asarray(wl)))  # (b, w)
     tw = t_up[None, :] * w
     k_ground = np.einsum("tw,sw,bw->tsb", s, rho / math.pi, tw)
@@ -453,13 +476,24 @@ def render(
     atmosphere: tuple[str, str, float] | None = None,
     cull_fraction: float = DEFAULT_CULL_FRACTION,
     wavelength_nm: np.ndarray = GRID_1NM,
+    neighbourhood=DEFAULT_NEIGHBOURHOOD,
 ) -> SceneImage:
     """Render `layout` to TOA band radiance images on a `dx_m` grid.
 
     `bands`: a `bandopt.sensor` band set (anything with `.response(wl)` and
     `.names`). `atmosphere`: (atmosphere, aerosol, visibility_km) of the 6S
-    tables, or None for none. Adjacency effects are neglected.
+    tables, or None for none. `neighbourhood`: a name of
+    `bandopt.scene.NEIGHBOURHOODS` or a `scene.Neighbourhood` without a
+    background surface; sets the adjacency term (module docstring; default
+    `scene.DEFAULT_NEIGHBOURHOOD`).
     """
+    hood = resolve_neighbourhood(neighbourhood)
+    if hood.surface is not None:
+        raise ValueError(
+            f"render: neighbourhood {hood.name!r} has a background surface "
+            f"({hood.surface!r}); the renderer takes the tile's own ground as the "
+            "neighbourhood's (lit_fraction and relative_illuminance only)."
+        )
     lamps = resolve_flux(layout, cull_fraction=cull_fraction)
     grid = scene_grid(layout, dx_m)
     e = illuminance_images(lamps, grid, cull_fraction=cull_fraction)
@@ -467,14 +501,29 @@ def render(
     sidx = surface_index(layout, grid)
     wl = np.asarray(wavelength_nm, float)
     response = np.asarray(bands.response(jnp.asarray(wl)))
-    kg, ku = band_factors(
-        lamps.lamp_types,
-        layout.surface_map,
-        response,
-        wavelength_nm=wl,
-        atmosphere=atmosphere,
-    )
-    rad = band_radiance(e, jnp.asarray(up, e.dtype), sidx, kg, ku)
+    up = jnp.asarray(up, e.dtype)
+
+    def through(part):
+        kg, ku = band_factors(
+            lamps.lamp_types,
+            layout.surface_map,
+            response,
+            wavelength_nm=wl,
+            atmosphere=atmosphere,
+            part=part,
+        )
+        return band_radiance(e, up, sidx, kg, ku), kg
+
+    if atmosphere is None or hood.is_uniform:
+        rad, kg = through("total")
+        adjacency = "uniform neighbourhood (total transmittance)"
+    else:
+        rad, kg = through("direct")
+        diffuse, _ = through("diffuse")
+        rad = rad + hood.lamp_factor * jnp.mean(diffuse, axis=(1, 2), keepdims=True)
+        adjacency = (
+            f"T_dir L(x) + k T_dif <L>_tile, k = {hood.lamp_factor:g} ({hood.name})"
+        )
     names = tuple(
         getattr(bands, "names", ()) or (f"B{i + 1}" for i in range(len(kg[0, 0])))
     )
@@ -482,7 +531,8 @@ def render(
         "dx_m": dx_m,
         "atmosphere": None if atmosphere is None else list(atmosphere),
         "cull_fraction": cull_fraction,
-        "adjacency": "neglected",
+        "adjacency": adjacency,
+        "neighbourhood": hood.to_dict(),
         "view": "nadir",
     }
     return SceneImage(
