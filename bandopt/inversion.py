@@ -403,27 +403,62 @@ def _score_chunk(y, cand, log_ps, a, q, log_pk, sigmas):
 
 @jax.jit
 def _score_chunk_shared(y, p, qq, log_ps, log_pk, sigmas):
-    """`_score_chunk` when every pixel has the same surface candidates: the
-    candidate band terms `p (k, s, a, b)`, `qq (1, s, a, b)` are computed once."""
+    """`_score_chunk` when every pixel has the same surface candidates.
 
-    def one(yp):
-        m = jnp.mean(jnp.abs(yp))
-        yn = yp / jnp.where(m > 0, m, 1.0)
+    The weighted sums of `_chi2` are matrix products over the candidates'
+    pixel-independent band products (`p²`, `p q`, `q²`, flattened to
+    `(k s a, b)`), `Σ_b w_b u_b v_b = W @ (u v)ᵀ`, so a chunk of pixels is a few
+    GEMMs plus the closed-form NNLS, elementwise (2-3x faster than
+    broadcasting per pixel; same numbers to 1e-10, tested against
+    `_score_chunk`). `p (k, s, a, b)`, `qq (1, s, a, b)` or None."""
+    k, s, a, b = p.shape
+    pf = p.reshape(-1, b)
+    p2 = pf * pf
+    m = jnp.mean(jnp.abs(y), axis=1, keepdims=True)
+    yn = y / jnp.where(m > 0, m, 1.0)
+    lps = jnp.repeat(log_ps, a)[None, None, :]  # (1, 1, s a), a fastest
+    hi = jax.lax.Precision.HIGHEST
+    tiny = 1e-300
 
-        def at(sigma):
-            sd = sigma * jnp.abs(yn) + SIGMA_FLOOR
-            chi = _chi2(yn, 1.0 / sd**2, p, qq)
-            lw = -0.5 * chi + log_ps[None, :, None]
-            lk = logsumexp(lw.reshape(lw.shape[0], -1), axis=1) + log_pk
-            return lk, jnp.min(chi)
+    def grid(x):  # (n, k s a) -> (n, k, s a)
+        return x.reshape(x.shape[0], k, s * a)
 
-        return jax.lax.map(at, sigmas)
+    def at(sigma):
+        sd = sigma * jnp.abs(yn) + SIGMA_FLOOR
+        w = 1.0 / sd**2
+        wy = w * yn
+        spp = grid(jnp.matmul(w, p2.T, precision=hi))
+        spy = grid(jnp.matmul(wy, pf.T, precision=hi))
+        syy = jnp.sum(wy * yn, axis=1)[:, None, None]
+        a1 = jnp.maximum(spy, 0.0) / jnp.maximum(spp, tiny)
+        chi = syy - a1 * spy
+        if qq is not None:
+            qf = jnp.broadcast_to(qq, (1, s, a, b)).reshape(-1, b)
+            pq = (p * qq).reshape(-1, b)
+            sqq = jnp.matmul(w, (qf * qf).T, precision=hi)[:, None, :]
+            sqy = jnp.matmul(wy, qf.T, precision=hi)[:, None, :]
+            spq = grid(jnp.matmul(w, pq.T, precision=hi))
+            det = spp * sqq - spq**2
+            ok = det > 1e-12 * jnp.maximum(spp * sqq, tiny)
+            dsafe = jnp.where(ok, det, 1.0)
+            a2 = (sqq * spy - spq * sqy) / dsafe
+            b2 = (spp * sqy - spq * spy) / dsafe
+            both = ok & (a2 >= 0) & (b2 >= 0)
+            chi_ab = syy - a2 * spy - b2 * sqy
+            b1 = jnp.maximum(sqy, 0.0) / jnp.maximum(sqq, tiny)
+            best = jnp.minimum(chi, syy - b1 * sqy)
+            chi = jnp.where(both, jnp.minimum(chi_ab, best), best)
+        chi = jnp.maximum(chi, 0.0)
+        lk = logsumexp(-0.5 * chi + lps, axis=2) + log_pk[None, :]
+        return lk, jnp.min(chi, axis=(1, 2))
 
-    return jax.vmap(one)(y)
+    lk, chi = jax.lax.map(at, sigmas)  # (S, n, k), (S, n)
+    return jnp.moveaxis(lk, 0, 1), jnp.moveaxis(chi, 0, 1)
 
 
-SHARED_CHUNK = 1024
-"""Pixels per compiled call when the surface candidates are shared."""
+SHARED_CHUNK = 256
+"""Pixels per compiled call when the surface candidates are shared (bounds
+the `(n, k s a)` temporaries to ~30 MB each for a 224-lamp prior)."""
 
 
 K_BUCKET = 32
