@@ -19,6 +19,7 @@ import os
 import pkgutil
 import sys
 
+from ._options import ListAction
 from ._output import OutputLock as OutputLock  # one run per --out (experiments)
 
 
@@ -68,8 +69,8 @@ def _defaults_in_help(parser: argparse.ArgumentParser) -> None:
     for a in parser._actions:
         if a.help in (None, argparse.SUPPRESS) or a.option_strings == []:
             continue
-        if isinstance(a, argparse._HelpAction | argparse._VersionAction):
-            continue
+        if isinstance(a, argparse._HelpAction | argparse._VersionAction | ListAction):
+            continue  # a list option states its convention and default itself
         if "default" in a.help.lower():
             continue
         if isinstance(a, argparse._StoreTrueAction):

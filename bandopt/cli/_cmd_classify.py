@@ -1,5 +1,7 @@
 """`bandopt classify`: score band sets for lamp-type classification."""
 
+from ._options import add_list_option
+
 
 def register(subparsers):
     p = subparsers.add_parser(
@@ -13,12 +15,14 @@ def register(subparsers):
             "accuracy and the reject option (confidence < 0.6 -> unknown)."
         ),
     )
-    p.add_argument(
+    add_list_option(
+        p,
         "--bands",
-        nargs="+",
         required=True,
         metavar="NAME|FILE",
-        help="reference sensor names (`bandopt bands --list`) or band-set JSON files",
+        help="reference sensor names (`bandopt bands --list`) or band-set JSON "
+        "files; a value that exists as a file is not split at commas",
+        keep_paths=True,
     )
     p.add_argument(
         "--no-noise",

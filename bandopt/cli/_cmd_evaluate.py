@@ -1,6 +1,9 @@
 """`bandopt evaluate`: LER, G and CCT of user lamp spectra, true and estimated
 from the band radiances of a band set."""
 
+from ._options import add_list_option
+
+
 SCENE = {
     "surface": "asphalt",
     "atmosphere": "none",
@@ -38,12 +41,13 @@ def register(subparsers):
         metavar="NAME|FILE",
         help="reference sensor name (e.g. sdgsat-1) or band-set JSON file",
     )
-    p.add_argument(
+    add_list_option(
+        p,
         "--lamps",
         required=True,
-        nargs="+",
         metavar="FILE",
-        help="lamp spectra (.csv/.txt/.dat two columns, .prn, .xml/.spdx)",
+        help="lamp spectrum files (.csv/.txt/.dat two columns, .prn, .xml/.spdx)",
+        split_commas=False,
     )
     p.add_argument(
         "--estimator",

@@ -1,6 +1,7 @@
 """`bandopt radiometry`: detection limit, saturation, SNR/NER and bit depth of a
 band set (thesis section 4.2)."""
 
+from ._options import add_list_option
 from ._output import add_locked_out
 
 
@@ -91,12 +92,12 @@ def register(subparsers):
         "made them, under key 'radiometry' of this recommendation JSON file "
         "(default: none)",
     )
-    p.add_argument(
+    add_list_option(
+        p,
         "--lamps",
-        nargs="+",
-        default=None,
         metavar="ID",
-        help="library lamp ids to use (default: all; see `bandopt library`)",
+        help="library lamp ids to use (see `bandopt library`)",
+        default_help="all",
     )
     p.add_argument("--seed", type=int, default=0, help="noise seed")
     p.add_argument(

@@ -1,5 +1,6 @@
 """`bandopt render`: render a road-lighting layout and see it at one or more GSDs."""
 
+from ._options import add_list_option
 from ._output import add_locked_out
 
 
@@ -25,13 +26,13 @@ def register(subparsers):
         metavar="NAME|FILE",
         help="shipped layout name or a TOML/JSON layout file",
     )
-    p.add_argument(
+    add_list_option(
+        p,
         "--gsd",
         type=float,
-        nargs="+",
         default=[10.0],
         metavar="M",
-        help="ground sample distance(s) in metres (default 10)",
+        help="ground sample distances [m]",
     )
     p.add_argument(
         "--bands",

@@ -1,5 +1,7 @@
 """`bandopt simulate`: band radiances of a scenario set, with every label."""
 
+from ._options import add_list_option
+
 
 def register(subparsers):
     p = subparsers.add_parser(
@@ -18,31 +20,35 @@ def register(subparsers):
         metavar="NAME|FILE",
         help="reference sensor name (e.g. viirs-dnb) or band-set JSON file",
     )
-    p.add_argument(
+    add_list_option(
+        p,
         "--lamps",
-        nargs="*",
         metavar="ID",
-        help="library lamp ids (default: all measured lamps; 'scored' for "
-        "the scored classes only)",
+        help="library lamp ids (see bandopt library), or 'scored' for the scored "
+        "classes only",
+        default_help="all measured lamps",
     )
-    p.add_argument(
+    add_list_option(
+        p,
         "--surfaces",
-        nargs="*",
         metavar="TYPE",
-        help="surface types (default: the default surfaces; see bandopt surfaces)",
+        help="surface types (see bandopt surfaces)",
+        default_help="the seven default surfaces, bandopt.scene.DEFAULT_SURFACES",
     )
-    p.add_argument(
+    add_list_option(
+        p,
         "--atmospheres",
-        nargs="*",
-        metavar="ATM/AEROSOL/VISkm",
-        help="e.g. midlatitude_summer/urban/23 or none (default: the default "
-        "atmospheres)",
+        metavar="ATMOSPHERE/AEROSOL/VIS_KM",
+        help="6S atmospheres, e.g. midlatitude_summer/urban/23, or none",
+        default_help="the four default atmospheres, "
+        "bandopt.scene.DEFAULT_ATMOSPHERES",
     )
-    p.add_argument(
+    add_list_option(
+        p,
         "--moon",
-        nargs="*",
         metavar="PHASE",
-        help="named phases (full, first_quarter, ...) or none (default: none full)",
+        help="named Moon phases (full, first_quarter, ...) or none",
+        default=["none", "full"],
     )
     p.add_argument(
         "--moon-zenith",
@@ -51,11 +57,12 @@ def register(subparsers):
         metavar="DEG",
         help="Moon zenith angle [deg] (default 30)",
     )
-    p.add_argument(
+    add_list_option(
+        p,
         "--classes",
-        nargs="*",
         metavar="CLASS",
-        help="EN 13201 classes (default: the four default classes)",
+        help="EN 13201 lighting classes",
+        default_help="the eight default classes, bandopt.scene.DEFAULT_CLASSES",
     )
     p.add_argument(
         "--uplight",
@@ -124,7 +131,7 @@ def _atm(text: str):
     parts = text.split("/")
     if len(parts) != 3:
         raise ValueError(
-            f"--atmospheres {text!r}: expected ATMOSPHERE/AEROSOL/VISIBILITY_KM "
+            f"--atmospheres {text!r}: expected ATMOSPHERE/AEROSOL/VIS_KM "
             "or none."
         )
     return (parts[0], parts[1], float(parts[2].lower().removesuffix("km")))
@@ -163,11 +170,7 @@ def run(args) -> int:
     warnings = coverage_check(bands, source=args.bands, log=sys.stderr)
     lamps = args.lamps
     scored_only = bool(lamps) and lamps == ["scored"]
-    moons = (
-        (None, "full")
-        if args.moon is None
-        else tuple(None if m.lower() == "none" else m for m in args.moon)
-    )
+    moons = tuple(None if m.lower() == "none" else m for m in args.moon)
     scen = build_scenarios(
         lamps=None if (not lamps or scored_only) else lamps,
         scored_only=scored_only,
