@@ -35,6 +35,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
+from .names import CanonicalMapping
 from .photometry import CCT_MAX_K, CCT_MIN_K, G_CAP, K_M_LM_PER_W
 
 
@@ -72,11 +73,12 @@ CCT_RANGE_K = (CCT_MIN_K, CCT_MAX_K)
 
 
 def resolve_target(name: str) -> str:
-    """Canonical target name (`ler`, `g`, `cct`, `all`; case ignored)."""
-    key = str(name).strip().lower()
-    if key not in TARGETS:
+    """Canonical target name (`ler`, `g`, `cct`, `all`; case and separators
+    ignored, the `bandopt.names` rule)."""
+    targets = CanonicalMapping({k: k for k in TARGETS})
+    if name not in targets:
         raise ValueError(f"Unknown target {name!r}; expected one of {list(TARGETS)}.")
-    return key
+    return targets[name]
 
 
 def metric_mask(target: str) -> np.ndarray:

@@ -90,6 +90,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from .names import CanonicalMapping, canonical_key
 from .spectra import GRID_1NM, planck_radiance, trapezoid_weights
 
 
@@ -250,18 +251,13 @@ def resolve_neighbourhood(neighbourhood: "str | Neighbourhood") -> Neighbourhood
     ignored) or itself."""
     if isinstance(neighbourhood, Neighbourhood):
         return neighbourhood
-    keys = {_canon(k): k for k in NEIGHBOURHOODS}
-    key = _canon(str(neighbourhood))
-    if key not in keys:
+    names = CanonicalMapping(NEIGHBOURHOODS)  # the `bandopt.names` rule
+    if neighbourhood not in names:
         raise ValueError(
             f"Unknown neighbourhood {neighbourhood!r}; expected one of "
             f"{list(NEIGHBOURHOODS)} or a `Neighbourhood`."
         )
-    return NEIGHBOURHOODS[keys[key]]
-
-
-def _canon(name: str) -> str:
-    return "".join(ch for ch in name.lower() if ch.isalnum())
+    return names[neighbourhood]
 
 
 # ------------------------------------------------------------------ uplight
@@ -344,7 +340,7 @@ def uplight_factor(
         raise ValueError(
             f"view_zenith_deg must lie in [0, 90), got {view_zenith_deg!r}."
         )
-    key = _canon(str(model))
+    key = canonical_key(model)
     if key not in UPLIGHT_MODELS:
         raise ValueError(
             f"Unknown uplight model {model!r}; expected one of {list(UPLIGHT_MODELS)}."
@@ -875,7 +871,7 @@ def build_scenarios(
         "q0_per_sr": q0_per_sr,
         "view_zenith_deg": view_zenith_deg,
         "uplight_ratio": uplight_ratio,
-        "uplight_model": _canon(uplight_model),
+        "uplight_model": canonical_key(uplight_model),
         "uplight_factor_per_sr": up_factor,
         "neighbourhood": hood.to_dict(),
         "lamp_mixtures": lamp_mixes,

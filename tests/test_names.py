@@ -99,3 +99,72 @@ def test_algorithm_names_use_the_registry():
         data = SearchData(np.ones((2, w.size)), w, np.array([0, 1]), np.array([0, 1]),
                           2, (), None, None)  # fmt: skip
         nlopt_search(data, SearchBox(2), algorithm="mlsl")
+
+
+# -- the same spellings resolve everywhere -------------------------------------
+
+
+def _resolvers():
+    """(choices, resolve) of every name normaliser that used its own rule."""
+    from bandopt.datasets import _atmosphere_build, atmosphere
+    from bandopt.estimate import TARGETS, resolve_target
+    from bandopt.radiometry._quantisers import make_quantiser
+    from bandopt.scene import NEIGHBOURHOODS, resolve_neighbourhood, uplight_factor
+
+    def quantiser(name):
+        q = make_quantiser(name, 1e-9, 1e-6, 10, responsivity_e=1e9)
+        return {"LinearQuantiser": "linear", "TwoGainQuantiser": "two-gain"}.get(
+            type(q).__name__, "sqrt"
+        )
+
+    def uplight(name):
+        profile = uplight_factor(0.1, model="profile")
+        return "profile" if uplight_factor(0.1, model=name) == profile else "lambertian"
+
+    def hood(name):
+        target = resolve_neighbourhood(name)
+        return next(k for k, v in NEIGHBOURHOODS.items() if v is target)
+
+    def atm_index(choices, argument):
+        return lambda n: choices[atmosphere._index(n, choices, argument)]
+
+    return {
+        "atmosphere": (
+            atmosphere.ATMOSPHERES,
+            atm_index(atmosphere.ATMOSPHERES, "atmosphere"),
+        ),
+        "aerosol": (atmosphere.AEROSOLS, atm_index(atmosphere.AEROSOLS, "aerosol")),
+        "6S build atmosphere": (
+            atmosphere.ATMOSPHERES,
+            lambda n: _atmosphere_build._choose(n, atmosphere.ATMOSPHERES, "x"),
+        ),
+        "target": (tuple(TARGETS), resolve_target),
+        "neighbourhood": (tuple(NEIGHBOURHOODS), hood),
+        "uplight model": (("profile", "lambertian"), uplight),
+        "quantiser": (("linear", "two-gain", "sqrt"), quantiser),
+    }
+
+
+def _spellings(name: str) -> list[str]:
+    words = name.replace("-", "_").split("_")
+    return [
+        name,
+        name.upper(),
+        "-".join(words).title(),
+        " ".join(words),
+        "_".join(w.upper() for w in words),
+        f" {name} ",
+    ]
+
+
+@pytest.mark.parametrize("what", list(_resolvers()))
+def test_the_same_spellings_resolve_everywhere(what):
+    """Every registry resolves a name by `bandopt.names.canonical_key`: case,
+    separators and spaces are ignored, and a name with another key fails."""
+    choices, resolve = _resolvers()[what]
+    for c in choices:
+        for s in _spellings(c):
+            assert canonical_key(s) == canonical_key(c)
+            assert resolve(s) == c, (what, s)
+    with pytest.raises(ValueError, match="expected one of"):
+        resolve(choices[0] + "x" if what != "quantiser" else "logarithmic")

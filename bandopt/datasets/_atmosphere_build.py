@@ -42,6 +42,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..names import CanonicalMapping
+
 
 ATMOSPHERES = (
     "midlatitude_summer",
@@ -70,16 +72,12 @@ TABLE_FILE = "sixs_tables.npz"
 META_FILE = "sixs_tables.json"
 
 
-def _canon(name: str) -> str:
-    return "".join(ch for ch in name.lower() if ch.isalnum())
-
-
 def _choose(name: str, choices: tuple[str, ...], what: str) -> str:
-    table = {_canon(c): c for c in choices}
-    key = _canon(str(name))
-    if key not in table:
+    """The entry of `choices` matching `name` (`bandopt.names` rule)."""
+    table = CanonicalMapping({c: c for c in choices})
+    if name not in table:
         raise ValueError(f"Unknown {what} {name!r}; expected one of {list(choices)}.")
-    return table[key]
+    return table[name]
 
 
 def make_sixs(

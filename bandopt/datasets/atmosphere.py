@@ -51,6 +51,7 @@ from pathlib import Path
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
+from ..names import CanonicalMapping, canonical_key
 from ..spectra import GRID_1NM
 
 
@@ -72,18 +73,15 @@ _META = DATA_DIR / "sixs_tables.json"
 _OFFNADIR_MAX_DEG = 30.0
 
 
-def _canon(name: str) -> str:
-    return "".join(ch for ch in str(name).lower() if ch.isalnum())
-
-
 def _index(name: str, choices: tuple[str, ...], argument: str) -> int:
-    keys = [_canon(c) for c in choices]
-    key = _canon(name)
-    if key not in keys:
+    """Position of `name` in `choices` (`bandopt.names` rule: case and
+    separators ignored)."""
+    positions = CanonicalMapping({c: i for i, c in enumerate(choices)})
+    if name not in positions:
         raise ValueError(
             f"Unknown `{argument}` {name!r}; expected one of {list(choices)}."
         )
-    return keys.index(key)
+    return positions[name]
 
 
 def _vis_index(visibility_km) -> int:
@@ -217,11 +215,11 @@ def transmittance(
     part, Beer-Lambert), then T linear in wavelength; the diffuse part is the
     difference of the two interpolated parts.
     """
-    if _canon(direction) not in ("up", "down"):
+    if canonical_key(direction) not in ("up", "down"):
         raise ValueError(
             f"Unknown `direction` {direction!r}; expected one of ['down', 'up']."
         )
-    key = _canon(part)
+    key = canonical_key(part)
     if key not in PARTS:
         raise ValueError(f"Unknown `part` {part!r}; expected one of {list(PARTS)}.")
     if key == "diffuse":

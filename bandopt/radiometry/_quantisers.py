@@ -33,6 +33,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from ..names import canonical_key
 from ..sensor import SensorParams
 
 
@@ -304,7 +305,7 @@ def make_quantiser(
     """A quantiser by name (case and separators ignored): `linear`,
     `two-gain` (knee at the geometric mean of the limits) or `sqrt`
     (needs `responsivity_e`; noise floor from `params`)."""
-    key = "".join(ch for ch in str(scheme).lower() if ch.isalnum())
+    key = canonical_key(scheme)
     if key == "linear":
         return LinearQuantiser(detection_limit, saturation, bits)
     if key in ("twogain", "dualgain"):

@@ -18,6 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
+from ..names import canonical_key
 from ..sensor import BandSet
 
 
@@ -68,7 +69,7 @@ def fit_local(
     leaf with |raw| > 8 (sigmoid within 3e-4 of a bound) is reported per band.
     The fit never returns a worse point than `init`.
     """
-    key = str(solver).strip().lower()
+    key = canonical_key(solver)  # the `bandopt.names` rule
     if key not in SOLVERS:
         raise ValueError(f"Unknown solver {solver!r}; expected one of {list(SOLVERS)}.")
     diff, static = eqx.partition(init, _filter(init))
