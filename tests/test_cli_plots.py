@@ -129,3 +129,40 @@ def test_classify_plot_confusion_matrix(tmp_path, figures):
 
 
 matplotlib.use("Agg")
+
+
+def test_evaluate_plot_truth_vs_estimate(tmp_path, figures):
+    """`evaluate --plot`: per metric the estimates with their 90 % intervals
+    against the truth, axes with units, one legend below the panels. The
+    figure code runs on rows of the `evaluate --json` form (training the
+    estimators for a real run takes ~40 s: tests/test_cli_answers.py)."""
+    from matplotlib.container import ErrorbarContainer
+
+    from bandopt.cli._cmd_evaluate import _plot
+
+    def row(t, e, iv):
+        return {"true": t, "estimate": e, "interval90": iv}
+
+    rows = [
+        row({"LER": 300.0, "G": 0.5, "CCT": 2000.0},
+            {"LER": 290.0, "G": 0.6, "CCT": 2100.0},
+            {"LER": [270.0, 310.0], "G": [0.4, 0.8], "CCT": [1900.0, 2400.0]}),
+        row({"LER": 320.0, "G": 2.0, "CCT": None},  # CCT not meaningful: skipped
+            {"LER": 330.0, "G": 1.8, "CCT": 5000.0},
+            None),  # ridge without intervals
+    ]  # fmt: skip
+    png = tmp_path / "e.png"
+    _plot(rows, "viirs-dnb", "inversion", png)
+    assert png.is_file() and png.stat().st_size < 300_000
+    (fig,) = figures
+    axes = fig.axes
+    assert len(axes) == 3
+    for ax, metric, n in zip(axes, ("LER", "G", "CCT"), (2, 2, 1), strict=True):
+        assert _labelled(ax) and metric in ax.get_xlabel()
+        (bars,) = [c for c in ax.containers if isinstance(c, ErrorbarContainer)]
+        assert len(bars.lines[0].get_xdata()) == n
+        assert ax.get_legend() is None
+    (legend,) = fig.legends
+    fig.canvas.draw()
+    top = legend.get_window_extent().y1
+    assert all(top <= ax.get_window_extent().y0 for ax in axes)  # below the data

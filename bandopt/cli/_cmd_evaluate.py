@@ -433,7 +433,8 @@ def _plot(rows, bands_name, estimator, path):
     import matplotlib.pyplot as plt
 
     units = {"LER": "lm/W", "G": "1", "CCT": "K"}
-    fig, axes = plt.subplots(1, 3, figsize=(12, 4))
+    fig, axes = plt.subplots(1, 3, figsize=(12, 4.4))
+    handles = []
     for ax, m in zip(axes, ("LER", "G", "CCT"), strict=True):
         xs, ys, lo, hi = [], [], [], []
         for r in rows:
@@ -456,7 +457,7 @@ def _plot(rows, bands_name, estimator, path):
             )
             a, b = min(xs + ys), max(xs + ys)
             ax.plot([a, b], [a, b], "k--", lw=1, label="1:1")
-            ax.legend(loc="best", fontsize=8)
+            handles = handles or ax.get_legend_handles_labels()[0]
         else:
             ax.text(
                 0.5,
@@ -468,6 +469,8 @@ def _plot(rows, bands_name, estimator, path):
         ax.set_xlabel(f"true {m} [{units[m]}]")
         ax.set_ylabel(f"estimated {m} [{units[m]}]")
     fig.suptitle(f"bandopt evaluate: {bands_name}, estimator {estimator}")
-    fig.tight_layout()
+    if handles:  # one legend below the panels, never over the data
+        fig.legend(handles=handles, loc="lower center", ncols=2, fontsize=8)
+    fig.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))
     fig.savefig(path, dpi=110)
     plt.close(fig)
