@@ -79,31 +79,66 @@ def update_recommendation(
     return path
 
 
-def recommended_band_set(key: str, *, results_dir: str | Path | None = None):
+BAND_FIELDS = ("name", "centre_nm", "fwhm_nm", "shape_k", "edges_nm")
+"""Fields of a band in a hand-written `bands` list that make the band; the
+others (intervals, tolerances) are reporting."""
+
+
+def recommended_band_set(
+    key: str,
+    *,
+    results_dir: str | Path | None = None,
+    path: str | Path | None = None,
+):
     """The band set experiment `key` (`"spectral"`, `"classification"`)
-    recommended: `recommendation.json[key]["band_set"]`, the
-    `BandSet.to_dict()` form every experiment writes. None when the file or
-    the key is absent; a key without a readable `band_set` is a `ValueError`
-    naming the file and the key (the one reader: no guessing between fields).
+    recommended, from `results/recommendation.json` (or the file `path`): the
+    one reader of band sets in recommendation files (the radiometry command
+    and the experiments call it; nothing else parses them).
+
+    Two forms, in this order, no guessing between others:
+    1. `entry["band_set"]`: the `BandSet.to_dict()` form every experiment
+       writes;
+    2. an entry without `band_set` whose `bands` is a non-empty list of bands
+       (`name`, `centre_nm`, `fwhm_nm`, optional `shape_k` or `edges_nm`;
+       other fields such as intervals are ignored) with optional `name` and
+       `range_nm` beside it: the form of a hand-written file.
+
+    None when the file or the key is absent; anything else is a `ValueError`
+    naming the file and the key.
     """
     # sensor (JAX) only when a band set is read: the report reads results
     # without it
     from .sensor import BandSet
 
-    root = Path(results_dir) if results_dir is not None else RESULTS_DIR
-    path = root / RECOMMENDATION
+    if path is None:
+        root = Path(results_dir) if results_dir is not None else RESULTS_DIR
+        path = root / RECOMMENDATION
+    path = Path(path)
     if not path.is_file():
         return None
-    entry = json.loads(path.read_text()).get(key)
+    try:
+        data = json.loads(path.read_text())
+    except (ValueError, UnicodeDecodeError) as err:
+        raise ValueError(f"{path}: not valid JSON ({err}).") from None
+    entry = data.get(key) if isinstance(data, dict) else None
     if entry is None:
         return None
-    data = entry.get("band_set") if isinstance(entry, dict) else None
-    if not isinstance(data, dict):
-        raise ValueError(
-            f"{path}: key {key!r} has no 'band_set' object (BandSet.to_dict form); "
-            f"re-run the experiment that writes {key!r}."
-        )
-    return BandSet.from_dict(data, label=f"{path}:{key}.band_set")
+    where = f"{path}: key {key!r}"
+    if isinstance(entry, dict) and isinstance(entry.get("band_set"), dict):
+        return BandSet.from_dict(entry["band_set"], label=f"{path}:{key}.band_set")
+    bands = entry.get("bands") if isinstance(entry, dict) else None
+    if isinstance(entry, dict) and "band_set" not in entry and bands:
+        if not isinstance(bands, list) or not all(isinstance(b, dict) for b in bands):
+            raise ValueError(f"{where}: 'bands' must be a list of band objects.")
+        form = {k: entry[k] for k in ("name", "range_nm") if k in entry}
+        form["bands"] = [
+            {k: v for k, v in b.items() if k in BAND_FIELDS} for b in bands
+        ]
+        return BandSet.from_dict(form, label=f"{path}:{key}.bands")
+    raise ValueError(
+        f"{where} has no 'band_set' object (BandSet.to_dict form) and no "
+        f"non-empty 'bands' list; re-run the experiment that writes {key!r}."
+    )
 
 
 README = "README.md"

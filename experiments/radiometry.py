@@ -39,13 +39,11 @@ def load_band_set(source: str, *, results_dir: str | Path = RESULTS):
     `DEFAULT_BAND_SET`), a reference sensor name or a band-set JSON file.
     Returns `(bands, label, note)`."""
     from bandopt import radiometry
+    from bandopt.results import recommended_band_set
 
     if str(source).strip().lower() in ("ours", "recommended"):
         path = Path(results_dir) / "recommendation.json"
-        spectral = None
-        if path.is_file():
-            spectral = json.loads(path.read_text()).get("spectral")
-        found = radiometry.spectral_band_set(spectral, path)
+        found = recommended_band_set("spectral", path=path)  # the one reader
         if found is not None:
             return found, "ours", f"bands from {path} key 'spectral'"
         bands, _, _ = radiometry.load_band_set(DEFAULT_BAND_SET)

@@ -59,5 +59,4 @@ from ._report import (
     compute as compute,
     load_band_set as load_band_set,
     plot_histograms as plot_histograms,
-    spectral_band_set as spectral_band_set,
 )

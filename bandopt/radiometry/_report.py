@@ -145,6 +145,7 @@ def load_band_set(source: str):
 
     "ours" is not resolved here (that would read results/ behind the user's
     back): name the recommendation file, or run `make radiometry`."""
+    from ..results import recommended_band_set
     from ..sensor import resolve_band_set
 
     if str(source).strip().lower() in ("ours", "recommended"):
@@ -160,47 +161,12 @@ def load_band_set(source: str):
         except (ValueError, UnicodeDecodeError):
             data = None  # the band-set loader names the problem
         if isinstance(data, dict) and "spectral" in data and "bands" not in data:
-            found = spectral_band_set(data["spectral"], p)
-            if found is None:
-                raise ValueError(f"{p}: key 'spectral' holds no band set.")
+            found = recommended_band_set("spectral", path=p)  # the one reader
             return found, "ours", f"bands from {p} key 'spectral'"
     found = resolve_band_set(source)
     if found.entry is None:
         return found.bands, found.label, f"band-set file {found.path}"
     return found.bands, found.label, found.entry.title
-
-
-def spectral_band_set(spectral, path):
-    """Find a band set in the "spectral" recommendation: the value itself, or
-    its "bands"/"band_set"/"recommended" entry, in `BandSet.from_dict` form."""
-    from ..sensor import BandSet
-
-    if not isinstance(spectral, dict):
-        return None
-    for cand in (
-        spectral,
-        spectral.get("band_set"),
-        spectral.get("recommended"),
-        spectral.get("bands"),
-    ):
-        if isinstance(cand, list):
-            cand = {"name": "ours", "bands": cand}
-        if isinstance(cand, dict) and isinstance(cand.get("bands"), list):
-            data = {k: v for k, v in cand.items() if k in ("name", "bands", "range_nm")}
-            data["bands"] = [
-                {
-                    k: v
-                    for k, v in b.items()
-                    if k in ("name", "centre_nm", "fwhm_nm", "shape_k", "edges_nm")
-                }
-                for b in data["bands"]
-                if isinstance(b, dict)
-            ]
-            try:
-                return BandSet.from_dict(data, label=f"{path}:spectral")
-            except ValueError:
-                continue
-    return None
 
 
 def distribution_set(config: RadiometryConfig):
