@@ -126,8 +126,8 @@ def run_searches(table_search, table_eval, budget, log):
             )
             results[n][key] = {"runs": runs, "eval": ev}
             log(
-                f"n={n} {key}: outer level-2 macro F1 {ev['level2']['macro_f1']:.3f}, "
-                f"level-1 {ev['level1']['macro_f1']:.3f}"
+                f"n={n} {key}: outer level-2 macro F1 {ev.level2.macro_f1:.3f}, "
+                f"level-1 {ev.level1.macro_f1:.3f}"
             )
     return results
 
@@ -514,11 +514,11 @@ def main(argv=None) -> int:
                 {
                     "n_bands": n,
                     "method": method,
-                    "level2_macro_f1": ev["level2"]["macro_f1"],
-                    "level2_macro_f1_fold_sd": ev["level2"]["macro_f1_fold_sd"],
-                    "level1_macro_f1": ev["level1"]["macro_f1"],
-                    "level2_accuracy": ev["level2"]["accuracy"],
-                    "level1_accuracy": ev["level1"]["accuracy"],
+                    "level2_macro_f1": ev.level2.macro_f1,
+                    "level2_macro_f1_fold_sd": ev.level2.macro_f1_fold_sd,
+                    "level1_macro_f1": ev.level1.macro_f1,
+                    "level2_accuracy": ev.level2.accuracy,
+                    "level1_accuracy": ev.level1.accuracy,
                     "inner_macro_f1_mean": float(
                         np.mean([x["inner_macro_f1"] for x in r["runs"]])
                     ),
@@ -529,10 +529,10 @@ def main(argv=None) -> int:
                     ),
                 }
             )
-        best_method = max(per, key=lambda m: per[m]["eval"]["level2"]["macro_f1"])
+        best_method = max(per, key=lambda m: per[m]["eval"].level2.macro_f1)
         if n in (2, 3, 4):
             for level in ("level1", "level2"):
-                for c, v in per[best_method]["eval"][level]["f1"].items():
+                for c, v in per[best_method]["eval"].level(level).f1.items():
                     f1_rows.append(
                         {
                             "n_bands": n,
@@ -545,7 +545,7 @@ def main(argv=None) -> int:
 
     # 2. choose the band count: smallest n within 0.02 of the best nested level-2 F1
     best_by_n = {
-        n: max(per[m]["eval"]["level2"]["macro_f1"] for m in per)
+        n: max(per[m]["eval"].level2.macro_f1 for m in per)
         for n, per in searches.items()
     }
     n_star = choose_band_count(best_by_n).n_bands
@@ -563,9 +563,9 @@ def main(argv=None) -> int:
     )
     log(
         f"recommended {n_star} bands: "
-        f"level-2 macro F1 {ev_rec['level2']['macro_f1']:.3f} "
-        f"(noise-free {ev_rec_clean['level2']['macro_f1']:.3f}, sum-normalised "
-        f"{ev_rec_sum['level2']['macro_f1']:.3f})"
+        f"level-2 macro F1 {ev_rec.level2.macro_f1:.3f} "
+        f"(noise-free {ev_rec_clean.level2.macro_f1:.3f}, sum-normalised "
+        f"{ev_rec_sum.level2.macro_f1:.3f})"
     )
 
     # 4. reference sensors (+ the issue-5 spectral bands when available)
@@ -584,10 +584,10 @@ def main(argv=None) -> int:
                     "sensor": name,
                     "n_bands": len(b),
                     "noise": noise,
-                    "level2_macro_f1": ev["level2"]["macro_f1"],
-                    "level1_macro_f1": ev["level1"]["macro_f1"],
-                    "level2_accuracy": ev["level2"]["accuracy"],
-                    "level1_accuracy": ev["level1"]["accuracy"],
+                    "level2_macro_f1": ev.level2.macro_f1,
+                    "level1_macro_f1": ev.level1.macro_f1,
+                    "level2_accuracy": ev.level2.accuracy,
+                    "level1_accuracy": ev.level1.accuracy,
                 }
             )
         log(f"reference {name}: level-2 macro F1 {ref_rows[-2]['level2_macro_f1']:.3f}")
@@ -634,12 +634,12 @@ def main(argv=None) -> int:
     est_note = f"bandopt.estimate ridge estimator; bands: {est_label}"
 
     # 6. write
-    conf2 = ev_rec["level2"]["confusion"]
-    classes2 = ev_rec["level2"]["labels"]
+    conf2 = ev_rec.level2.confusion
+    classes2 = ev_rec.level2.labels
     reject_rows = [
         {"level": lv, **x}
         for lv in ("level1", "level2")
-        for x in ev_rec[lv]["reject"]["curve"]
+        for x in ev_rec.level(lv).reject["curve"]
     ]
     _write_csv(out / "band_count.csv", band_rows)
     _write_csv(out / "f1_per_class.csv", f1_rows)
@@ -648,21 +648,21 @@ def main(argv=None) -> int:
     _write_csv(out / "influence_identification.csv", ident_rows)
     _write_csv(out / "influence_estimates.csv", est_rows)
     for lv in ("level1", "level2"):
-        cm = ev_rec[lv]
+        cm = ev_rec.level(lv)
         _write_csv(
             out / f"confusion_{lv}.csv",
             [
-                {"true": c, **dict(zip(cm["confusion_columns"], row, strict=True))}
-                for c, row in zip(cm["labels"], cm["confusion"], strict=True)
+                {"true": c, **dict(zip(cm.confusion_columns, row, strict=True))}
+                for c, row in zip(cm.labels, cm.confusion, strict=True)
             ],
         )
     lamp_rows = [
         {
             "lamp": k,
             "accuracy_level2": v,
-            "accuracy_level1": ev_rec["level1"]["lamp_accuracy"][k],
+            "accuracy_level1": ev_rec.level1.lamp_accuracy[k],
         }
-        for k, v in ev_rec["level2"]["lamp_accuracy"].items()
+        for k, v in ev_rec.level2.lamp_accuracy.items()
     ]
     _write_csv(out / "lamp_accuracy.csv", lamp_rows)
 
@@ -679,8 +679,8 @@ def main(argv=None) -> int:
         "shape_k": [float(k) for k in rec_bands.shape_k],
         "band_set": rec_bands.to_dict(),
         "level2_macro_f1_nested": best_by_n[n_star],
-        "level2_macro_f1_recommended_set": ev_rec["level2"]["macro_f1"],
-        "level1_macro_f1_recommended_set": ev_rec["level1"]["macro_f1"],
+        "level2_macro_f1_recommended_set": ev_rec.level2.macro_f1,
+        "level1_macro_f1_recommended_set": ev_rec.level1.macro_f1,
         "note": (
             "bands searched on every lamp (outer folds as validation); the unbiased "
             "estimate is the nested one (bands searched inside each outer fold)"
@@ -697,8 +697,8 @@ def main(argv=None) -> int:
             "n_search_scenes": table_search.n_rows,
         },
         "scored_classes": {
-            "level1": ev_rec["level1"]["labels"],
-            "level2": ev_rec["level2"]["labels"],
+            "level1": ev_rec.level1.labels,
+            "level2": ev_rec.level2.labels,
         },
         "features": "log_ratio (centred log band ratios); sum_normalised compared",
         "band_count": band_rows,
@@ -718,7 +718,7 @@ def main(argv=None) -> int:
             "reject_curve": reject_rows,
             "confusion_level2": {
                 "labels": classes2,
-                "columns": ev_rec["level2"]["confusion_columns"],
+                "columns": ev_rec.level2.confusion_columns,
                 "counts": conf2,
             },
         },

@@ -14,6 +14,8 @@ from ..forward import (
 )
 from ._evaluate import (
     REJECT_GRID as REJECT_GRID,
+    BandSetScores as BandSetScores,
+    LevelScores as LevelScores,
     class_order as class_order,
     evaluate_band_set as evaluate_band_set,
     outer_splits as outer_splits,

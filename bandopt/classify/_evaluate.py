@@ -9,7 +9,8 @@ scored lamp is tested exactly once); per-fold macro F1 is reported beside.
 Only scored classes (`LampLibrary.is_scored`) take part.
 """
 
-from collections.abc import Sequence
+import dataclasses
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -21,8 +22,82 @@ from ._knn import K_GRID, REJECT_THRESHOLD, choose_k, make_classifier
 from ._metrics import reject, reject_curve, scores
 
 
+LEVEL_KEYS = ("level1", "level2")
+
 REJECT_GRID: tuple[float, ...] = (0.0, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
 """Confidence thresholds of the reported reject curve. [1]"""
+
+
+@dataclasses.dataclass(frozen=True)
+class LevelScores:
+    """Scores of one classification level over the pooled outer test rows.
+
+    The first fields are those of `bandopt.classify.scores` (with per-lamp
+    accuracy); then the reject option at `REJECT_THRESHOLD` with its curve,
+    the per-fold records, fold mean and SD of macro F1, the number of test
+    rows and, with `keep_rows`, `rows` = (row index, true label, predicted
+    label) arrays (not JSON-ready, left out of `to_dict`).
+    """
+
+    labels: list[str]
+    f1: dict[str, float]
+    precision: dict[str, float]
+    recall: dict[str, float]
+    support: dict[str, int]
+    macro_f1: float
+    accuracy: float
+    coverage: float
+    confusion: list[list[int]]
+    confusion_columns: list[str]
+    lamp_accuracy: dict[str, float]
+    lamp_accuracy_by_class: dict[str, float]
+    mean_lamp_accuracy: float
+    reject: dict
+    folds: list[dict]
+    macro_f1_fold_mean: float
+    macro_f1_fold_sd: float
+    n_test_rows: int
+    rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def to_dict(self, *, rows: bool = False) -> dict:
+        """The JSON-ready dict (the form `evaluate_band_set` returned before
+        it returned this class); `rows=True` adds the `rows` arrays."""
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        if not rows or self.rows is None:
+            del out["rows"]
+        return out
+
+
+@dataclasses.dataclass(frozen=True)
+class BandSetScores:
+    """What `evaluate_band_set` returns: `level1`/`level2` scores (None for a
+    level not evaluated) and the evaluation settings `config`."""
+
+    level1: LevelScores | None
+    level2: LevelScores | None
+    config: Mapping
+    order: tuple[str, ...] = LEVEL_KEYS
+    """Order of the levels as requested (kept by `to_dict`)."""
+
+    def level(self, name: str) -> LevelScores:
+        """The scores of level `name` (`level1`/`level2`, aliases allowed)."""
+        key = resolve_level(name)
+        found = getattr(self, key)
+        if found is None:
+            raise ValueError(f"level {key!r} was not evaluated ({list(self.order)}).")
+        return found
+
+    @property
+    def levels(self) -> tuple[str, ...]:
+        """The evaluated levels, in the requested order."""
+        return self.order
+
+    def to_dict(self, *, rows: bool = False) -> dict:
+        """JSON-ready dict: one entry per evaluated level, then `config` (the
+        form `evaluate_band_set` returned before; `rows=True` keeps `rows`)."""
+        out: dict = {lv: getattr(self, lv).to_dict(rows=rows) for lv in self.order}
+        out["config"] = dict(self.config)
+        return out
 
 
 def class_order(level: str, present: Sequence[str] | np.ndarray) -> list[str]:
@@ -64,15 +139,15 @@ def evaluate_band_set(
     test_rows: np.ndarray | None = None,
     radiance: np.ndarray | None = None,
     keep_rows: bool = False,
-) -> dict:
+) -> BandSetScores:
     """Outer-fold scores of one band set (or one band set per outer fold, a
     sequence, for bands searched inside each fold).
 
     `train_rows`/`test_rows`: optional boolean row masks (conditions) applied
     on top of the lamp splits. `radiance`: precomputed `(n, b)` (then `bands`
-    is only used for its length). Returns a JSON-ready dict per level; with
-    `keep_rows`, each level also holds `"rows"`: (row index, true, predicted)
-    arrays of the pooled test rows (not JSON-ready).
+    is only used for its length). Returns a `BandSetScores` (`.to_dict()` is
+    JSON-ready); with `keep_rows`, each level also holds `rows`: (row index,
+    true, predicted) arrays of the pooled test rows.
     """
     splits = outer_splits(table, fold_seed)
     per_fold_bands = isinstance(bands, (list, tuple))
@@ -99,7 +174,8 @@ def evaluate_band_set(
         return cache[key]
 
     out = {}
-    for level in map(resolve_level, levels):
+    order = tuple(map(resolve_level, levels))
+    for level in order:
         lamp_cls = table.lamp_classes(level)
         classes = class_order(level, lamp_cls)
         cidx = {c: i for i, c in enumerate(classes)}
@@ -159,8 +235,8 @@ def evaluate_band_set(
         res["n_test_rows"] = len(yt)
         if keep_rows:
             res["rows"] = (np.concatenate(row_idx), labels_true, pred)
-        out[level] = res
-    out["config"] = {
+        out[level] = LevelScores(**res)
+    config = {
         "noise": noise,
         "seed": seed,
         "fold_seed": fold_seed,
@@ -170,32 +246,31 @@ def evaluate_band_set(
         "n_outer": len(splits),
         "n_inner": len(splits[0].inner),
     }
-    return out
+    return BandSetScores(
+        level1=out.get("level1"), level2=out.get("level2"), config=config, order=order
+    )
 
 
-def summary(result: dict) -> dict:
+def summary(result: BandSetScores) -> dict:
     """The headline numbers of an `evaluate_band_set` result (JSON-ready):
     per level macro F1 (pooled and fold mean/SD), accuracy, mean per-lamp
     accuracy, F1 per class, and the reject option at its default threshold."""
     out = {}
     for level in LEVEL_KEYS:
-        if level not in result:
+        r = getattr(result, level)
+        if r is None:
             continue
-        r = result[level]
         out[level] = {
-            "macro_f1": r["macro_f1"],
-            "macro_f1_fold_mean": r["macro_f1_fold_mean"],
-            "macro_f1_fold_sd": r["macro_f1_fold_sd"],
-            "accuracy": r["accuracy"],
-            "mean_lamp_accuracy": r.get("mean_lamp_accuracy"),
-            "f1": r["f1"],
-            "k": [f["k"] for f in r["folds"]],
+            "macro_f1": r.macro_f1,
+            "macro_f1_fold_mean": r.macro_f1_fold_mean,
+            "macro_f1_fold_sd": r.macro_f1_fold_sd,
+            "accuracy": r.accuracy,
+            "mean_lamp_accuracy": r.mean_lamp_accuracy,
+            "f1": r.f1,
+            "k": [f["k"] for f in r.folds],
             "reject": {
-                k: r["reject"][k]
+                k: r.reject[k]
                 for k in ("threshold", "coverage", "accuracy", "macro_f1")
             },
         }
     return out
-
-
-LEVEL_KEYS = ("level1", "level2")

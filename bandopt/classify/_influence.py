@@ -107,7 +107,7 @@ def influence_identification(
     base = evaluate_band_set(
         table, bands, radiance=rad, keep_rows=True, fold_seed=fold_seed
     )
-    bidx, byt, byp = base["level2"]["rows"]
+    bidx, byt, byp = base.level2.rows
     out = []
     for factor in factors:
         cond, values = _values(table, factor)
@@ -124,7 +124,7 @@ def influence_identification(
                 fold_seed=fold_seed,
                 levels=("level2",),
             )
-            idx, yt, yp = ev["level2"]["rows"]
+            idx, yt, yp = ev.level2.rows
             m, bm = same[idx], same[bidx]
             out.append(
                 IdentificationInfluence(

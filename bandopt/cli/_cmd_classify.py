@@ -74,8 +74,8 @@ def plot_confusion(results, path, *, noise: bool) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    levels = [lv for lv in ("level1", "level2") if lv in results[0][1]]
-    sizes = [len(results[0][1][lv]["confusion"]) for lv in levels]
+    levels = list(results[0][1].levels)
+    sizes = [len(results[0][1].level(lv).confusion) for lv in levels]
     fig, axes = plt.subplots(
         len(results),
         len(levels),
@@ -90,8 +90,8 @@ def plot_confusion(results, path, *, noise: bool) -> None:
     for i, (src, res) in enumerate(results):
         for j, lv in enumerate(levels):
             ax = axes[i, j]
-            cm = np.asarray(res[lv]["confusion"], float)
-            cols = list(res[lv]["confusion_columns"])
+            cm = np.asarray(res.level(lv).confusion, float)
+            cols = list(res.level(lv).confusion_columns)
             rows = cols[: cm.shape[0]]
             frac = cm / np.maximum(cm.sum(axis=1, keepdims=True), 1.0)
             im = ax.imshow(frac, cmap="Blues", vmin=0.0, vmax=1.0, aspect="auto")
@@ -111,7 +111,7 @@ def plot_confusion(results, path, *, noise: bool) -> None:
             ax.set_xlabel("predicted class")
             ax.set_ylabel("true class")
             ax.set_title(
-                f"{src}, {lv}: macro F1 {res[lv]['macro_f1']:.2f}", fontsize=9
+                f"{src}, {lv}: macro F1 {res.level(lv).macro_f1:.2f}", fontsize=9
             )
     fig.colorbar(
         im, ax=axes, shrink=0.8, label="fraction of the true class's test scenes [1]"

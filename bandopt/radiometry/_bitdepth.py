@@ -171,7 +171,7 @@ def _classification_score(
         radiance=radiance,
     )
     return {
-        "macro_f1": float(res["level2"]["macro_f1"]),
+        "macro_f1": float(res.level2.macro_f1),
         "classifier": "bandopt.classify.evaluate_band_set (level 2)",
     }
 
