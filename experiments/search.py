@@ -505,15 +505,15 @@ def budget(args) -> None:
                 for k in (0, 1, 2)
             ]
             wall = time.perf_counter() - t0
-            idx = [i for r in res for i in r["lamp_index"]]
-            err = [e for r in res for e in r["lamp_errors"]]
+            idx = [i for r in res for i in r.lamp_index]
+            err = [e for r in res for e in r.lamp_errors]
             s = mae_ci(err, idx, ctx.table.classes)
             rows.append(
                 {
                     "n_bands": n,
                     "max_evals": evals,
                     "wall_s_3_folds": wall,
-                    "mean_cv_loss": float(np.mean([r["loss"] for r in res])),
+                    "mean_cv_loss": float(np.mean([r.loss for r in res])),
                     **{m: s[m]["mae"] for m in s},
                 }
             )

@@ -1,6 +1,7 @@
 """Band search: gradients, optimistix recovery, nlopt vs grid, reproducibility,
 resumable sweeps (local and Dask), lamp-grouped problems, evaluate JSON."""
 
+import dataclasses
 import json
 import os
 from pathlib import Path
@@ -211,9 +212,9 @@ def test_run_task_is_reproducible():
         seed=3,
     )
     a, b = run_task(t), run_task(t)
-    assert a["bands"] == b["bands"] and a["loss"] == b["loss"]
-    assert a["lamp_errors"] == b["lamp_errors"]
-    assert a["local"]["result"] and a["global"]["n_evals"] <= 25
+    assert a.bands == b.bands and a.loss == b.loss
+    assert a.lamp_errors == b.lamp_errors
+    assert a.local["result"] and a.global_search["n_evals"] <= 25
 
 
 # -- sweeps: resume, spawned workers, Dask ------------------------------------------
@@ -372,11 +373,56 @@ def test_warm_start_takes_previous_result_explicitly(tmp_path):
     results = {}
     a = run_task(t, results=results)
     (key,) = results
-    assert results[key]["task"]["n_bands"] == 1 and a["warm_start"] is not None
+    assert results[key]["task"]["n_bands"] == 1 and a.warm_start is not None
     (tmp_path / "tasks").mkdir()
     (tmp_path / "tasks" / f"{key}.json").write_text(json.dumps(results[key]))
     from_files = TaskResults(tmp_path)
     b = run_task(t, results=from_files)
     assert list(from_files) == [key]  # read from the file, nothing else run
-    assert b["bands"] == a["bands"] and b["loss"] == a["loss"]
+    assert b.bands == a.bands and b.loss == a.loss
     assert task_id(t) != key
+    # the task file is the result's to_dict(), read back exactly
+    from bandopt.search import TaskResult
+
+    again = TaskResult.from_dict(results[key])
+    assert again.to_dict() == results[key]
+    assert list(again.to_dict()) == list(results[key])
+    assert TaskResult.from_dict(a.to_dict()) == a
+
+
+def test_task_result_json_is_the_task_file_form():
+    """`TaskResult.to_dict()` keeps the key order of the task files written
+    before the class existed (search, final fold, reference sensor) and
+    `from_dict` inverts it; unknown keys are refused by name."""
+    from bandopt.search import TaskResult
+
+    ev = {"lamp_index": [3], "lamp_errors": [[1.0, 0.1, 50.0]], "fold_of_lamp": [0],
+          "lambdas": [[0.1]], "degrees": [[1]]}  # fmt: skip
+    search = TaskResult(
+        task={"kind": "search", "fold": 0}, bands={"bands": []}, context={"c": 1},
+        wall_s=2.0, space={"n": 1}, loss=0.5, spread=[1.0], global_search={"g": 1},
+        local=None, warm_start=None, **ev,
+    )  # fmt: skip
+    assert list(search.to_dict()) == [
+        "task", "space", "bands", "loss", "spread", "global", "local", "warm_start",
+        "context", "lamp_index", "lamp_errors", "fold_of_lamp", "lambdas", "degrees",
+        "wall_s",
+    ]  # fmt: skip
+    final = dataclasses.replace(search, **dict.fromkeys(ev))
+    assert list(final.to_dict()) == [
+        "task", "space", "bands", "loss", "spread", "global", "local", "warm_start",
+        "context", "wall_s",
+    ]  # fmt: skip
+    assert final.evaluation() is None and search.evaluation() == ev
+    ref = TaskResult(task={"kind": "reference", "sensor": "viirs-dnb"},
+                     bands={"name": "VIIRS"}, context={}, wall_s=1.0, **ev)  # fmt: skip
+    assert ref.is_reference and list(ref.to_dict()) == [
+        "task", "bands", *ev, "wall_s", "context",
+    ]  # fmt: skip
+    for r in (search, final, ref):
+        d = json.loads(json.dumps(r.to_dict()))
+        assert TaskResult.from_dict(d) == r and TaskResult.from_dict(d).to_dict() == d
+    with pytest.raises(ValueError, match=r"unknown keys \['bogus'\]"):
+        TaskResult.from_dict({**search.to_dict(), "bogus": 1})
+    with pytest.raises(ValueError, match=r"missing keys \['context'\]"):
+        TaskResult.from_dict({"task": {}, "bands": {}, "wall_s": 1.0})

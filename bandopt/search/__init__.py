@@ -86,6 +86,7 @@ from ._sweep import (
 )
 from ._task import (
     PRESETS as PRESETS,
+    TaskResult as TaskResult,
     evaluate_bands as evaluate_bands,
     get_context as get_context,
     make_task as make_task,

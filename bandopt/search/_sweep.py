@@ -99,9 +99,10 @@ class TaskResults(dict):
 
 
 def run_task_default(task: dict, out_dir: str | Path | None = None) -> dict:
-    """`run_task(task)`, warm-starting from the finished tasks of `out_dir`."""
+    """`run_task(task).to_dict()`, warm-starting from the finished tasks of
+    `out_dir`."""
 
-    return run_task(task, results=TaskResults(out_dir))
+    return run_task(task, results=TaskResults(out_dir)).to_dict()
 
 
 @contextlib.contextmanager

@@ -277,14 +277,110 @@ def evaluate_bands(ctx: Context, bands, *, folds=None, seed: int = 0) -> dict:
     }
 
 
-def run_task(task: dict, progress=None, *, results: dict | None = None) -> dict:
-    """Run one task (see module docstring) and return its JSON-ready result.
+EVALUATION_KEYS = ("lamp_index", "lamp_errors", "fold_of_lamp", "lambdas", "degrees")
+"""Keys of `evaluate_bands`: the outer-fold test errors of a task's bands."""
 
-    `results`: results of tasks already run, by `task_id` (a dict, or anything
-    with `get` and item assignment, e.g. `bandopt.search.TaskResults` reading a
-    sweep's finished files). A warm start takes the n - 1 task's result from
-    it, running it (and adding it) when missing. Default: a new dict for this
-    call, so nothing is shared between calls."""
+
+@dataclasses.dataclass(frozen=True)
+class TaskResult:
+    """The result of `run_task`; `to_dict()` is the JSON of its task file.
+
+    Every task: `task` (its description), `bands` (the band set: the
+    `BandSet.to_dict()` form for a search, name/centre/FWHM for a reference
+    sensor), `context` (scenario settings), `wall_s` [s] and, on an outer
+    fold, the test-lamp evaluation (`lamp_index`, `lamp_errors` [LER lm/W,
+    G 1, CCT K per lamp], `fold_of_lamp`, `lambdas`, `degrees`; None on the
+    `"final"` fold). A search also has `space`, `loss`, `spread`,
+    `global_search` (JSON key `"global"`), `local` and `warm_start` (None
+    when not run). `from_dict` reads a task file back.
+    """
+
+    task: dict
+    bands: dict
+    context: dict
+    wall_s: float
+    space: dict | None = None
+    loss: float | None = None
+    spread: list | None = None
+    global_search: dict | None = None
+    local: dict | None = None
+    warm_start: dict | None = None
+    lamp_index: list | None = None
+    lamp_errors: list | None = None
+    fold_of_lamp: list | None = None
+    lambdas: list | None = None
+    degrees: list | None = None
+
+    @property
+    def is_reference(self) -> bool:
+        """A reference sensor scored on the folds (no search)."""
+        return self.task.get("kind") == "reference"
+
+    def evaluation(self) -> dict | None:
+        """The test-lamp evaluation as `evaluate_bands` returns it."""
+        if self.lamp_index is None:
+            return None
+        return {k: getattr(self, k) for k in EVALUATION_KEYS}
+
+    def to_dict(self) -> dict:
+        """The JSON-ready dict of the task file (keys in the order of the
+        files written before this class existed)."""
+        ev = self.evaluation() or {}
+        if self.is_reference:
+            return {
+                "task": self.task,
+                "bands": self.bands,
+                **ev,
+                "wall_s": self.wall_s,
+                "context": self.context,
+            }
+        return {
+            "task": self.task,
+            "space": self.space,
+            "bands": self.bands,
+            "loss": self.loss,
+            "spread": self.spread,
+            "global": self.global_search,
+            "local": self.local,
+            "warm_start": self.warm_start,
+            "context": self.context,
+            **ev,
+            "wall_s": self.wall_s,
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "TaskResult":
+        """A `TaskResult` from a task file's dict (`to_dict` inverted); a
+        missing or unknown key is a `ValueError` naming it."""
+        keys = {"task", "bands", "context", "wall_s", *EVALUATION_KEYS}
+        if not (isinstance(data.get("task"), dict) and data["task"].get("kind")
+                == "reference"):  # fmt: skip
+            keys |= {"space", "loss", "spread", "global", "local", "warm_start"}
+        unknown = set(data) - keys
+        missing = {"task", "bands", "context", "wall_s"} - set(data)
+        if unknown or missing:
+            raise ValueError(
+                f"task result: unknown keys {sorted(unknown)}, missing keys "
+                f"{sorted(missing)}."
+            )
+        kw = {k: v for k, v in data.items() if k != "global"}
+        if "global" in data:
+            kw["global_search"] = data["global"]
+        return cls(**kw)
+
+
+def run_task(
+    task: dict, progress=None, *, results: dict | None = None
+) -> TaskResult:
+    """Run one task (see module docstring) and return its `TaskResult`
+    (`to_dict()` is JSON-ready).
+
+    `results`: results of tasks already run, by `task_id`, as task-file dicts
+    (a dict, or anything with `get` and item assignment, e.g.
+    `bandopt.search.TaskResults` reading a sweep's finished files). A warm
+    start takes the n - 1 task's result from it, running it (and adding its
+    `to_dict()`) when missing. Default: a new dict for this call, so nothing
+    is shared between calls."""
     results = {} if results is None else results
 
     t0 = time.perf_counter()
@@ -294,13 +390,13 @@ def run_task(task: dict, progress=None, *, results: dict | None = None) -> dict:
     if task.get("kind") == "reference":
         bands = reference_sensor(task["sensor"])
         ev = evaluate_bands(ctx, bands, seed=task["seed"])
-        return {
-            "task": task,
-            "bands": _describe(bands),
+        return TaskResult(
+            task=task,
+            bands=_describe(bands),
+            context=ctx.config,
+            wall_s=time.perf_counter() - t0,
             **ev,
-            "wall_s": time.perf_counter() - t0,
-            "context": ctx.config,
-        }
+        )
     space = Space(task["n_bands"], pan=task["pan"], max_fwhm_nm=task["max_fwhm_nm"])
     lamps, splits, _, _ = _lamps_and_splits(ctx, task["fold"])
     problem = make_problem(
@@ -357,7 +453,7 @@ def run_task(task: dict, progress=None, *, results: dict | None = None) -> dict:
         )
         prev = results.get(task_id(prev_task))
         if prev is None:
-            prev = run_task(prev_task, results=results)
+            prev = run_task(prev_task, results=results).to_dict()
             results[task_id(prev_task)] = prev
         free = [b for b in prev["bands"]["bands"] if b["name"] != "PAN"]
         pc = [b["centre_nm"] for b in free]
@@ -402,23 +498,22 @@ def run_task(task: dict, progress=None, *, results: dict | None = None) -> dict:
     )
     if warm is not None and warm["used"]:
         loss = warm["loss"]
-    out = {
-        "task": task,
-        "space": space.to_dict(),
-        "bands": bands.to_dict(),
-        "loss": loss,
-        "spread": np.asarray(problem.spread).tolist(),
-        "global": g.to_dict(),
-        "local": local,
-        "warm_start": warm,
-        "context": ctx.config,
-    }
+    ev = {}
     if task["fold"] != "final":
-        out.update(
-            evaluate_bands(ctx, bands, folds=[int(task["fold"])], seed=task["seed"])
-        )
-    out["wall_s"] = time.perf_counter() - t0
-    return out
+        ev = evaluate_bands(ctx, bands, folds=[int(task["fold"])], seed=task["seed"])
+    return TaskResult(
+        task=task,
+        space=space.to_dict(),
+        bands=bands.to_dict(),
+        loss=loss,
+        spread=np.asarray(problem.spread).tolist(),
+        global_search=g.to_dict(),
+        local=local,
+        warm_start=warm,
+        context=ctx.config,
+        wall_s=time.perf_counter() - t0,
+        **ev,
+    )
 
 
 def _describe(bands) -> dict:
