@@ -293,6 +293,17 @@ def _response_on(bands, wavelength_nm) -> Array:
     return resp
 
 
+def band_weights_on(
+    bands, wavelength_nm: Float[ArrayLike, " w"]
+) -> Float[Array, "b w"]:
+    """Band-averaging weights `(b, w)` of `bands` (a band set or a response
+    array on the grid) on `wavelength_nm`: `scene.band_weights` of the band
+    responses, the weights of every band radiance in bandopt (this module,
+    and the inversion's design matrix). [1/nm-sample, rows sum to 1]"""
+    wl = jnp.asarray(wavelength_nm)
+    return band_weights(_response_on(bands, wl), wl)
+
+
 def cropped(scen: ScenarioSet, bands, *, tail: float = DEFAULT_TAIL):
     """(factors, response) on the grid cropped to the bands' support."""
     return _cropped(scen.factors, bands, tail)

@@ -70,8 +70,8 @@ from .datasets import surfaces as surf_mod
 from .datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT
 from .estimate import CCT_RANGE_K, METRICS, MIRED, lamp_truth
 from .folds import class_balanced_weights
+from .forward import band_weights_on as forward_band_weights
 from .photometry import G_CAP, K_M_LM_PER_W
-from .scene import band_weights
 
 
 SURFACE_MODES = ("unknown", "class", "measured")
@@ -333,7 +333,21 @@ def lamp_prior(ids, spectra, level1, level2, wavelength_nm) -> LampPrior:
 
 
 def _design(spectra, weights, cond: Conditions, basis: SurfaceBasis):
-    """Band terms: lamp x surface `A (k, a, b, r+1)`, Moon `Q (a, b, r+1)`."""
+    """Band terms: lamp x surface `A (k, a, b, r+1)`, Moon `Q (a, b, r+1)`.
+
+    The same contraction as `bandopt.forward.band_radiance` (weights
+    `W` from `forward.band_weights_on`, lamp light through
+    `T_e`, moonlight through `T`, path radiance added once), but over a
+    different factorisation: every candidate lamp `k` times every surface
+    *basis vector* `r` (mean and principal components, not reflectances) per
+    candidate atmosphere, with the illuminance and the Moon's brightness left
+    as unknown scales solved per pixel. `forward.band_radiance` contracts
+    whole scenes (one reflectance per surface, one illuminance per class), so
+    it cannot produce these per-basis-vector terms without one call per basis
+    vector and lamp. `tests/test_inversion.py::
+    test_design_matches_the_scene_in_its_neighbourhood` checks the terms
+    against `scene.band_terms`, the contraction `forward.band_measurement`
+    uses, on real scenes."""
     rho = np.vstack([basis.mean, basis.basis]) / math.pi  # (r+1, w)
     lw = cond.lamp_transmittance[:, None, :] * weights[None]  # (a, b, w)
     a = jnp.einsum(
@@ -1058,9 +1072,9 @@ def _context_setup(ctx):
 
 
 def band_weights_on(bands, wavelength_nm) -> np.ndarray:
-    """Band-averaging weights `(b, w)` of a band set on a grid (`band_weights`)."""
-    grid = jnp.asarray(np.asarray(wavelength_nm, float))
-    return np.asarray(band_weights(jnp.asarray(bands.response(grid)), grid))
+    """Band-averaging weights `(b, w)` of a band set on a grid: those of the
+    forward model (`forward.band_weights_on`), as a NumPy array."""
+    return np.asarray(forward_band_weights(bands, np.asarray(wavelength_nm, float)))
 
 
 def _surface_knowledge(row_types, basis: SurfaceBasis, seed: int) -> dict:

@@ -306,3 +306,22 @@ def test_shared_candidate_path_matches_the_per_pixel_path(moon):
     assert np.all(np.isfinite(lk)) and np.all(np.isfinite(chi))
     np.testing.assert_allclose(lk, np.asarray(ref_lk), rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(chi, np.asarray(ref_chi), rtol=1e-9, atol=1e-9)
+
+
+def test_band_weights_are_the_forward_models():
+    """The inversion's band weights come from `forward.band_weights_on`, the
+    weights of every forward band radiance: a flat spectrum reads 1 in every
+    band, and a forward band radiance equals the weights' contraction."""
+    import jax.numpy as jnp
+
+    from bandopt import forward
+
+    wl = np.arange(380.0, 901.0)
+    w = inv_mod.band_weights_on(FIVE, wl)
+    np.testing.assert_array_equal(w, np.asarray(forward.band_weights_on(FIVE, wl)))
+    np.testing.assert_allclose(w.sum(axis=1), 1.0, rtol=1e-12)
+    spectra = np.exp(-0.5 * ((wl - np.array([[500.0], [650.0]])) / 40.0) ** 2)
+    grid = jnp.asarray(wl)
+    resp = FIVE.response(grid)
+    rad = forward.radiance_from_response(jnp.asarray(spectra), grid, resp)
+    np.testing.assert_allclose(np.asarray(rad), spectra @ w.T, rtol=1e-12)
