@@ -5,11 +5,12 @@ BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
 export JAX_PLATFORMS ?= cpu
 export MPLBACKEND ?= Agg
+BEFORE  ?= 0e7885f
 SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: run test test-slow lint bench atmospheres surfaces library lamp-models ler \
-        g cct sweep compare classify radiometry spatial noise-aware estimate report \
-        check-report docs tutorial clean
+        g cct sweep compare classify radiometry spatial noise-aware estimate \
+        before-after report check-report docs tutorial clean
 
 $(STAMP): pyproject.toml requirements.lock
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
@@ -81,6 +82,9 @@ spatial: $(STAMP)  ## GSD needed, overlapping lamp types (writes recommendation.
 	$(BIN)/python -m experiments.spatial
 	$(BIN)/python -m experiments.spatial_overlap
 	$(BIN)/python -m experiments.readme_sections spatial
+
+before-after: $(STAMP)  ## headline numbers at git BEFORE (default 0e7885f) vs the working tree (writes results/before_after.json + README section)
+	$(BIN)/python -m experiments.before_after --before $(BEFORE)
 
 report: $(STAMP)  ## results/report/index.html from results/ only (fails if two results files disagree)
 	$(BIN)/bandopt report --out results/report
