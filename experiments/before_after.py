@@ -84,7 +84,13 @@ class TreeSource:
     def __init__(self, results: str | Path = "results"):
         self.root = Path(results)
         self.commit = None
-        self.label = f"working tree ({self.root})"
+        try:
+            head = _git(self.root, "rev-parse", "--short", "HEAD")
+        except (RuntimeError, OSError):
+            head = None
+        self.label = f"working tree ({self.root}" + (
+            f", checkout at {head})" if head else ")"
+        )
 
     def read(self, rel: str) -> bytes | None:
         path = self.root / rel
@@ -581,7 +587,11 @@ def _physics(recorded: dict, commit: str | None, repo: Path | None) -> dict:
                 f"{hood.group(1) if hood else 'uniform'}, uplight model "
                 f"{up.group(1) if up else 'lambertian'}"
             )
-    out["summary"] = text + ratio
+    version = (
+        f"; physics version {', '.join(map(str, out['physics_version']))}"
+        if "physics_version" in out else ""
+    )
+    out["summary"] = text + version + ratio
     return out
 
 

@@ -198,12 +198,22 @@ def test_not_re_run_is_marked_and_a_re_run_is_not(head, same):
     assert "2026-11-25T13:00:00+00:00" in text
 
 
-def test_pre_issue_11_physics_is_said_when_not_recorded(same):
-    """The committed results at 0e7885f predate the recorded neighbourhood."""
-    phys = same["experiments"]["noise_aware"]["before"]["physics"]
-    if "neighbourhood" in phys:
-        pytest.skip("noise_aware was re-run with recorded physics")
-    assert phys["summary"].startswith(ba.NOT_RECORDED_PRE11)
+def test_the_before_revision_of_issue_11_reads(head):
+    """The lead's use: --before 0e7885f (main before the re-runs) against now.
+    Every experiment has its files there, and none records the scene physics
+    (all predate the recorded neighbourhood)."""
+    try:
+        before = ba.GitSource("0e7885f", RESULTS)
+    except ValueError:
+        pytest.skip("commit 0e7885f is not in this clone")
+    rec = ba.compare(before, head)
+    for exp, e in rec["experiments"].items():
+        assert e["before"]["run"] and e["after"]["run"], exp
+        assert e["before"]["physics"]["summary"].startswith(
+            ba.NOT_RECORDED_PRE11
+        ), exp
+        # ABSENT allowed: a quantity only the re-run has (e.g. one more band)
+        assert all(r["before"] != ba.NOT_RUN for r in e["headlines"]), exp
 
 
 def test_change_rules():
