@@ -627,9 +627,15 @@ def side_info(f: Files, repo: Path | None) -> dict | None:
     commit = man.get("git_commit")
     physics = _physics(recorded, commit, repo)
     if f.experiment == "spatial" and f.raw("summary.json") is not None:
-        atm = f.load("summary.json").get("atmosphere")
-        if atm:
-            physics["summary"] += f"; spatial renderer: {atm}"
+        # the renderer states its transmittance and adjacency model in prose
+        summary = f.load("summary.json")
+        notes = [summary.get("atmosphere")] + [
+            a for a in summary.get("assumptions", []) if "adjacency" in str(a)
+        ]
+        notes = [str(n) for n in notes if n]
+        if notes:
+            physics["renderer"] = notes
+            physics["summary"] += f"; spatial renderer: {'; '.join(notes)}"
     info = {
         "git_commit": commit,
         "git_dirty": man.get("git_dirty"),
