@@ -334,6 +334,7 @@ def test_cli_json_schema(capsys):
     )
     assert rc == 0
     out = json.loads(capsys.readouterr().out)
+    assert out["config"]["estimator"] == "knn"  # the default
     assert [b["source"] for b in out["band_sets"]] == ["iss-dslr", "viirs-dnb"]
     from bandopt.datasets.lamps import library
 

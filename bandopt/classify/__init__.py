@@ -1,8 +1,9 @@
 """Lamp-type classification: scale-free features, one-vs-all KNN (scikit-learn)
-with k chosen by nested lamp-grouped cross-validation, F1 per class, confusion
-matrices, a reject option, and band selection for classification (nlopt
-global search of the real F1; a differentiable soft-nearest-neighbour
-surrogate with optimistix)."""
+with k chosen by nested lamp-grouped cross-validation, or the physics-based
+inversion's hierarchical posterior (`evaluate_inversion`, the same folds and
+scores); F1 per class, confusion matrices, a reject option, and band selection
+for classification (nlopt global search of the real F1; a differentiable
+soft-nearest-neighbour surrogate with optimistix)."""
 
 from ..forward import (
     CONDITIONS as CONDITIONS,
@@ -13,6 +14,7 @@ from ..forward import (
     scenario_table as scenario_table,
 )
 from ._evaluate import (
+    ESTIMATORS as ESTIMATORS,
     REJECT_GRID as REJECT_GRID,
     BandSetScores as BandSetScores,
     LevelScores as LevelScores,
@@ -38,6 +40,12 @@ from ._influence import (
     influence_estimates as influence_estimates,
     influence_identification as influence_identification,
 )
+from ._inversion import (
+    evaluate_inversion as evaluate_inversion,
+    hierarchical_types as hierarchical_types,
+    inversion_conditions as inversion_conditions,
+    table_lamps as table_lamps,
+)
 from ._knn import (
     K_GRID as K_GRID,
     REJECT_THRESHOLD as REJECT_THRESHOLD,
@@ -48,12 +56,14 @@ from ._knn import (
 )
 from ._metrics import (
     UNKNOWN as UNKNOWN,
+    confidence_curve as confidence_curve,
     confusion as confusion,
     f1_from_confusion as f1_from_confusion,
     macro_f1_int as macro_f1_int,
     reject as reject,
     reject_curve as reject_curve,
     scores as scores,
+    withhold as withhold,
 )
 from ._predict import (
     TRAINING_SCENARIOS as TRAINING_SCENARIOS,

@@ -17,12 +17,17 @@ import numpy as np
 from ..datasets.lamps import LEVEL1, LEVEL2
 from ..folds import nested_lamp_splits
 from ..forward import ScenarioTable, resolve_level
-from ._features import deduplicate, features
+from ..names import validate_method
+from ._features import deduplicate, features, resolve_kind
 from ._knn import K_GRID, REJECT_THRESHOLD, choose_k, make_classifier
 from ._metrics import reject, reject_curve, scores
 
 
 LEVEL_KEYS = ("level1", "level2")
+
+ESTIMATORS = ("knn", "inversion")
+"""Classifiers `evaluate_band_set` scores: the one-vs-all KNN on log band
+ratios (default) and the physics-based inversion (`evaluate_inversion`)."""
 
 REJECT_GRID: tuple[float, ...] = (0.0, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
 """Confidence thresholds of the reported reject curve. [1]"""
@@ -36,7 +41,9 @@ class LevelScores:
     accuracy); then the reject option at `REJECT_THRESHOLD` with its curve,
     the per-fold records, fold mean and SD of macro F1, the number of test
     rows and, with `keep_rows`, `rows` = (row index, true label, predicted
-    label) arrays (not JSON-ready, left out of `to_dict`).
+    label) arrays (not JSON-ready, left out of `to_dict`); for the inversion
+    with `keep_rows` also `reject_rows` = (probability of the predicted class,
+    unexplained flag) of the same rows (likewise left out).
     """
 
     labels: list[str]
@@ -58,13 +65,16 @@ class LevelScores:
     macro_f1_fold_sd: float
     n_test_rows: int
     rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    reject_rows: tuple[np.ndarray, np.ndarray] | None = None
 
     def to_dict(self, *, rows: bool = False) -> dict:
         """The JSON-ready dict (the form `evaluate_band_set` returned before
-        it returned this class); `rows=True` adds the `rows` arrays."""
+        it returned this class); `rows=True` adds the `rows` (and
+        `reject_rows`) arrays that exist."""
         out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
-        if not rows or self.rows is None:
-            del out["rows"]
+        for key in ("rows", "reject_rows"):
+            if not rows or out[key] is None:
+                del out[key]
         return out
 
 
@@ -139,9 +149,13 @@ def evaluate_band_set(
     test_rows: np.ndarray | None = None,
     radiance: np.ndarray | None = None,
     keep_rows: bool = False,
+    estimator: str = "knn",
 ) -> BandSetScores:
     """Outer-fold scores of one band set (or one band set per outer fold, a
     sequence, for bands searched inside each fold).
+
+    `estimator`: `"knn"` (default) or `"inversion"` (`evaluate_inversion`,
+    the same folds and scores; one band set, all rows, no KNN options).
 
     `train_rows`/`test_rows`: optional boolean row masks (conditions) applied
     on top of the lamp splits. `radiance`: precomputed `(n, b)` (then `bands`
@@ -149,6 +163,32 @@ def evaluate_band_set(
     JSON-ready); with `keep_rows`, each level also holds `rows`: (row index,
     true, predicted) arrays of the pooled test rows.
     """
+    estimator = validate_method(estimator, ESTIMATORS, "estimator")
+    if estimator == "inversion":
+        knn_only = {
+            "bands (one per fold)": isinstance(bands, (list, tuple)),
+            "kind": resolve_kind(kind) != "log_ratio",
+            "k_grid": tuple(k_grid) != K_GRID,
+            "train_rows": train_rows is not None,
+            "test_rows": test_rows is not None,
+        }
+        bad = [k for k, v in knn_only.items() if v]
+        if bad:
+            raise ValueError(f"estimator 'inversion' does not take {bad} (KNN only).")
+        from ._inversion import evaluate_inversion  # it builds on this module
+
+        return evaluate_inversion(
+            table,
+            bands,
+            levels=levels,
+            noise=noise,
+            seed=seed,
+            fold_seed=fold_seed,
+            thresholds=thresholds,
+            params=params,
+            radiance=radiance,
+            keep_rows=keep_rows,
+        )
     splits = outer_splits(table, fold_seed)
     per_fold_bands = isinstance(bands, (list, tuple))
     if per_fold_bands and len(bands) != len(splits):
@@ -254,7 +294,9 @@ def evaluate_band_set(
 def summary(result: BandSetScores) -> dict:
     """The headline numbers of an `evaluate_band_set` result (JSON-ready):
     per level macro F1 (pooled and fold mean/SD), accuracy, mean per-lamp
-    accuracy, F1 per class, and the reject option at its default threshold."""
+    accuracy, F1 per class, the model choice per outer fold (`k` of the KNN
+    or `sigma_rel` of the inversion), and the reject option at its default
+    threshold (with the inversion: also the unexplained fraction)."""
     out = {}
     for level in LEVEL_KEYS:
         r = getattr(result, level)
@@ -267,10 +309,22 @@ def summary(result: BandSetScores) -> dict:
             "accuracy": r.accuracy,
             "mean_lamp_accuracy": r.mean_lamp_accuracy,
             "f1": r.f1,
-            "k": [f["k"] for f in r.folds],
+            # the model choice of each outer fold: k (KNN) or σ_rel (inversion)
+            **{
+                key: [f[key] for f in r.folds]
+                for key in ("k", "sigma_rel")
+                if key in r.folds[0]
+            },
             "reject": {
                 k: r.reject[k]
-                for k in ("threshold", "coverage", "accuracy", "macro_f1")
+                for k in (
+                    "threshold",
+                    "coverage",
+                    "accuracy",
+                    "macro_f1",
+                    "unexplained",
+                )
+                if k in r.reject
             },
         }
     return out

@@ -24,9 +24,20 @@ def reject(
     """Labels with the reject option: the class of highest probability, or
     `UNKNOWN` when that probability is below `threshold`."""
     classes = np.asarray(classes, dtype=object)
-    conf = proba.max(axis=1)
-    out = classes[np.argmax(proba, axis=1)].astype(object)
-    out[conf < threshold] = UNKNOWN
+    return withhold(classes[np.argmax(proba, axis=1)], proba.max(axis=1), threshold)
+
+
+def withhold(
+    predicted, confidence: np.ndarray, threshold: float, *, unexplained=None
+) -> np.ndarray:
+    """The reject option on given predictions: `UNKNOWN` where the
+    `confidence` of the predicted class is below `threshold` or where
+    `unexplained` (optional boolean per row) is set; else the prediction."""
+    out = np.array(predicted, dtype=object)
+    drop = np.asarray(confidence) < threshold
+    if unexplained is not None:
+        drop = drop | np.asarray(unexplained, bool)
+    out[drop] = UNKNOWN
     return out
 
 
@@ -78,13 +89,33 @@ def macro_f1_int(y_true: np.ndarray, y_pred: np.ndarray, labels: np.ndarray) -> 
     return float(np.mean(f)) if f else 0.0
 
 
-def scores(y_true, y_pred, labels: Sequence[str] | np.ndarray, lamp=None) -> dict:
+def scores(
+    y_true,
+    y_pred,
+    labels: Sequence[str] | np.ndarray,
+    lamp=None,
+    *,
+    others: Sequence[str] | np.ndarray = (),
+) -> dict:
     """F1 per class, macro F1, accuracy (over all rows; rejected rows count as
     wrong), coverage (rows not "unknown"), confusion matrix and, with `lamp`
-    (the lamp id of each row), per-lamp accuracy."""
+    (the lamp id of each row), per-lamp accuracy.
+
+    `others`: classes a model may predict that are not scored (`labels`), e.g.
+    the inversion's prior-only lamps; each gets a confusion column before
+    "unknown", and predicting one is a miss of the true class. A prediction
+    in neither `labels`, `others` nor "unknown" raises `ValueError` (it would
+    silently drop out of the confusion matrix)."""
     y_true = np.asarray(y_true, object)
     y_pred = np.asarray(y_pred, object)
-    cm = confusion(y_true, y_pred, labels, extra=(UNKNOWN,))
+    extra = (*others, UNKNOWN)
+    stray = set(y_pred.tolist()) - set(labels) - set(extra)
+    if stray:
+        raise ValueError(
+            f"y_pred: classes {sorted(map(str, stray))} are neither scored labels "
+            f"{list(labels)} nor in `others`."
+        )
+    cm = confusion(y_true, y_pred, labels, extra=extra)
     pr = f1_from_confusion(cm)
     out = {
         "labels": list(labels),
@@ -98,7 +129,7 @@ def scores(y_true, y_pred, labels: Sequence[str] | np.ndarray, lamp=None) -> dic
         "accuracy": float(np.mean(y_true == y_pred)) if len(y_true) else float("nan"),
         "coverage": float(np.mean(y_pred != UNKNOWN)) if len(y_true) else float("nan"),
         "confusion": cm.tolist(),
-        "confusion_columns": [*labels, UNKNOWN],
+        "confusion_columns": [*labels, *extra],
     }
     if lamp is not None:
         lamp = np.asarray(lamp, object)
@@ -127,14 +158,37 @@ def reject_curve(
     """For each confidence threshold: coverage (fraction of rows not rejected),
     accuracy and macro F1 on the accepted rows, and the macro F1 with rejected
     rows counted as misses."""
+    classes = np.asarray(classes, dtype=object)
+    return confidence_curve(
+        y_true,
+        classes[np.argmax(proba, axis=1)],
+        proba.max(axis=1),
+        classes,
+        thresholds,
+    )
+
+
+def confidence_curve(
+    y_true,
+    predicted,
+    confidence: np.ndarray,
+    labels: Sequence[str] | np.ndarray,
+    thresholds: Sequence[float] | np.ndarray,
+    *,
+    unexplained=None,
+    others: Sequence[str] | np.ndarray = (),
+) -> list[dict]:
+    """`reject_curve` for given predictions and their confidences (`withhold`
+    at each threshold; `unexplained` rows are rejected at every threshold;
+    `others` as in `scores`)."""
     y_true = np.asarray(y_true, object)
     out = []
     for t in thresholds:
-        pred = reject(proba, classes, float(t))
+        pred = withhold(predicted, confidence, float(t), unexplained=unexplained)
         acc_rows = pred != UNKNOWN
-        s_all = scores(y_true, pred, classes)
+        s_all = scores(y_true, pred, labels, others=others)
         if acc_rows.any():
-            s_acc = scores(y_true[acc_rows], pred[acc_rows], classes)
+            s_acc = scores(y_true[acc_rows], pred[acc_rows], labels, others=others)
             acc, mf1 = s_acc["accuracy"], s_acc["macro_f1"]
         else:
             acc, mf1 = float("nan"), float("nan")

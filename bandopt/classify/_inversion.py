@@ -1,0 +1,274 @@
+"""Lamp-type classification with the physics-based inversion
+(`bandopt.inversion`), scored like the KNN (`evaluate_band_set`).
+
+For every outer fold of the table's nested lamp splits (`outer_splits`: the
+KNN's folds and, for the same seed and lamps, a `search.Context`'s), the
+inversion is fitted on the outer training lamps (`bandopt.inversion.
+fit_inversion`: its band-error scale, conformal factors and unexplained
+threshold chosen on the inner folds; the prior holds the training lamps plus
+the measured lamps of classes too small to score) with the surface unknown,
+as for the KNN. It inverts the outer test lamps' pixels; the type is read
+from the posterior hierarchically: level 1 is the family of highest posterior
+probability, level 2 the most probable class inside that family, so a level-2
+hit is always a level-1 hit.
+
+**Reject option.** As for the KNN, per level, with the same threshold
+(`REJECT_THRESHOLD`): a pixel is "unknown" when the inversion flags it
+unexplained (its best reduced χ² above the inner folds' 99th percentile) or
+when the posterior probability of its predicted class is below the threshold.
+For level 2 that probability is the top level-2 probability inside the chosen
+family; at any threshold >= 0.5 this is the same as requiring the top level-2
+probability overall (a class holding more than half the posterior makes its
+family the most probable one).
+
+The scores without the reject option classify every pixel, unexplained or
+not. Prior-only classes (e.g. low-pressure sodium, RGB LEDs) can be
+predicted but are not scored: each has a confusion column and predicting one
+counts as a miss.
+"""
+
+import dataclasses
+import functools
+from collections.abc import Sequence
+
+import numpy as np
+
+from .. import inversion as inv_mod
+from ..datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT
+from ..forward import ScenarioTable, resolve_level
+from ._evaluate import (
+    REJECT_GRID,
+    BandSetScores,
+    LevelScores,
+    class_order,
+    outer_splits,
+    usable_rows,
+)
+from ._features import features
+from ._knn import REJECT_THRESHOLD
+from ._metrics import confidence_curve, scores, withhold
+
+
+SURFACE_MODE = "unknown"
+"""What the classifying inversion knows of the surface: nothing (like the
+KNN)."""
+
+
+def inversion_conditions(table: ScenarioTable) -> inv_mod.Conditions:
+    """The inversion's scene conditions (atmospheres, neighbourhood, brightest
+    Moon state) of the scenario set behind `table`, rebuilt from its
+    `config` with one lamp and one surface."""
+    from ..scene import Neighbourhood, build_scenarios
+
+    cfg = table.config
+    hood = cfg.get("neighbourhood")
+    extra = {} if hood is None else {"neighbourhood": Neighbourhood(**hood)}
+    scen = build_scenarios(
+        lamps=[table.lamp_ids[0]],
+        surfaces=[
+            cfg["surfaces"][0]
+            if isinstance(cfg["surfaces"][0], str)
+            else tuple(cfg["surfaces"][0])
+        ],
+        atmospheres=[a if isinstance(a, str) else tuple(a) for a in cfg["atmospheres"]],
+        moons=tuple(cfg["moons"]),
+        moon_zenith_deg=cfg["moon_zenith_deg"],
+        classes=tuple(cfg["classes"][:1]),
+        wavelength_nm=table.wavelength_nm,
+        **extra,
+    )
+    return inv_mod.Conditions.from_scenarios(scen)
+
+
+@functools.lru_cache(maxsize=2)
+def _cached_basis(first_nm: float, last_nm: float, n: int) -> inv_mod.SurfaceBasis:
+    return inv_mod.surface_basis(np.linspace(first_nm, last_nm, n))
+
+
+def _surface_basis(grid) -> inv_mod.SurfaceBasis:
+    """`bandopt.inversion.surface_basis` of a uniform grid, cached (its SVD
+    takes seconds)."""
+    grid = np.asarray(grid, float)
+    if not np.allclose(np.diff(grid), grid[1] - grid[0]):
+        return inv_mod.surface_basis(grid)
+    return _cached_basis(float(grid[0]), float(grid[-1]), grid.size)
+
+
+def table_lamps(table: ScenarioTable) -> tuple[inv_mod.LampSet, inv_mod.LampSet]:
+    """The table's lamps as a `LampSet` in its lamp order, and the measured
+    lamps that are in every prior and never scored. Raises `ValueError` when
+    a table lamp is not a scored library lamp."""
+    grid = table.wavelength_nm
+    scored = inv_mod.library_lamps(grid, scored=True)
+    index = {lid: i for i, lid in enumerate(scored.ids)}
+    missing = [lid for lid in table.lamp_ids if lid not in index]
+    if missing:
+        raise ValueError(
+            f"table: lamps {missing[:5]} are not scored library lamps; the "
+            "inversion classifies with measured, typed library spectra only."
+        )
+    lamps = scored.take([index[lid] for lid in table.lamp_ids])
+    return lamps, inv_mod.library_lamps(grid, scored=False)
+
+
+def hierarchical_types(result: inv_mod.InversionResult):
+    """Level-1 and level-2 types of every pixel from the posterior, ignoring
+    the unexplained flag, with the probability of each predicted class:
+    `(level1, p1, level2, p2)`, arrays of length n. Level 2 is the most
+    probable class inside the most probable level-1 family."""
+    l1 = list(result.level1_labels)
+    l2 = list(result.level2_labels)
+    p1 = np.asarray(result.level1_probabilities)
+    p2 = np.asarray(result.level2_probabilities)
+    i1 = np.argmax(p1, axis=1)
+    parent = np.array([l1.index(LEVEL2_PARENT.get(c, c)) for c in l2])
+    inside = parent[None, :] == i1[:, None]
+    i2 = np.argmax(np.where(inside, p2, -1.0), axis=1)
+    rows = np.arange(p1.shape[0])
+    return (
+        np.asarray(l1, object)[i1],
+        p1[rows, i1],
+        np.asarray(l2, object)[i2],
+        p2[rows, i2],
+    )
+
+
+def evaluate_inversion(
+    table: ScenarioTable,
+    bands,
+    *,
+    levels: Sequence[str] | np.ndarray = ("level1", "level2"),
+    noise: bool = True,
+    seed: int = 0,
+    fold_seed: int = 0,
+    thresholds: Sequence[float] | np.ndarray = REJECT_GRID,
+    params=None,
+    radiance: np.ndarray | None = None,
+    keep_rows: bool = False,
+) -> BandSetScores:
+    """Outer-fold classification scores of the inversion for one band set, a
+    `BandSetScores` as from `evaluate_band_set` (see the module docstring).
+    Per level: F1 per class, macro F1, accuracy, per-lamp accuracy, confusion
+    matrix, `reject` (threshold, coverage, accuracy and macro F1 with rejects
+    as misses, F1, the `unexplained` fraction, and the curve over `thresholds`
+    with accuracy on the accepted pixels) and `folds` (the inversion's
+    `sigma_rel` and unexplained threshold per fold). Rows as for the KNN: all
+    with `noise`, one per group of identical feature rows without. With
+    `keep_rows`, each level also holds `rows` (row index, true, predicted)
+    and `reject_rows` (probability of the predicted class, unexplained
+    flag)."""
+    levels = [resolve_level(lv) for lv in levels]
+    splits = outer_splits(table, fold_seed)
+    rad = np.asarray(
+        radiance
+        if radiance is not None
+        else table.band_radiance(bands, noise=noise, params=params, seed=seed),
+        float,
+    )
+    keep = usable_rows(np.asarray(features(rad)), table, noise)
+    kept = np.flatnonzero(keep)
+    lamps, always = table_lamps(table)
+    cond = inversion_conditions(table)
+    grid = table.wavelength_nm
+    weights = inv_mod.band_weights_on(bands, grid)
+    basis = _surface_basis(grid)
+    lamp_ids = np.asarray(table.lamp_ids, object)
+
+    per_fold = []  # (split, inversion, test rows, types, unexplained)
+    for s in splits:
+        inv = inv_mod.fit_inversion(
+            rad[kept],
+            table.lamp[kept],
+            lamps,
+            s.train,
+            s.inner,
+            weights,
+            cond,
+            basis=basis,
+            surface_mode=SURFACE_MODE,
+            always=always,
+        )
+        te = keep & table.rows_of_lamps(s.test)
+        # every pixel typed; the unexplained flag is applied by the reject option
+        res = dataclasses.replace(inv, threshold=np.inf).predict(rad[te])
+        types = hierarchical_types(res)
+        labels = (res.level1_labels, res.level2_labels)
+        per_fold.append((s, inv, te, types, res.misfit > inv.threshold, labels))
+
+    out = {}
+    for level in levels:
+        classes = class_order(level, table.lamp_classes(level))
+        col = 0 if level == "level1" else 2
+        yt, pred, conf, unexp, lamp_of, folds, row_idx = [], [], [], [], [], [], []
+        # classes the inversion can predict but that are not scored
+        others = set().union(*(lab[col // 2] for *_, lab in per_fold)) - set(classes)
+        ref = LEVEL1 if level == "level1" else LEVEL2
+        others = [c for c in ref if c in others] + sorted(others - set(ref))
+        for s, inv, te, types, unexplained, _ in per_fold:
+            y = table.labels(level)[te]
+            p = types[col]
+            fs = scores(y, p, classes, others=others)
+            yt.append(y)
+            pred.append(p)
+            conf.append(types[col + 1])
+            unexp.append(unexplained)
+            lamp_of.append(lamp_ids[table.lamp[te]])
+            row_idx.append(np.flatnonzero(te))
+            folds.append(
+                {
+                    "outer": s.outer,
+                    "sigma_rel": inv.sigma_rel,
+                    "unexplained_threshold_reduced_chi2": inv.threshold,
+                    "n_prior_lamps": len(inv.prior.ids),
+                    "macro_f1": fs["macro_f1"],
+                    "accuracy": fs["accuracy"],
+                    "n_train_rows": int((keep & table.rows_of_lamps(s.train)).sum()),
+                    "n_test_rows": int(te.sum()),
+                }
+            )
+        yt, pred, conf, unexp = map(np.concatenate, (yt, pred, conf, unexp))
+        res = scores(yt, pred, classes, lamp=np.concatenate(lamp_of), others=others)
+        rej = scores(
+            yt,
+            withhold(pred, conf, REJECT_THRESHOLD, unexplained=unexp),
+            classes,
+            others=others,
+        )
+        res["reject"] = {
+            "threshold": REJECT_THRESHOLD,
+            **{k: rej[k] for k in ("macro_f1", "accuracy", "coverage", "f1")},
+            "unexplained": float(np.mean(unexp)),
+            "curve": confidence_curve(
+                yt,
+                pred,
+                conf,
+                classes,
+                thresholds,
+                unexplained=unexp,
+                others=others,
+            ),
+        }
+        res["folds"] = folds
+        res["macro_f1_fold_mean"] = float(np.mean([f["macro_f1"] for f in folds]))
+        res["macro_f1_fold_sd"] = float(np.std([f["macro_f1"] for f in folds]))
+        res["n_test_rows"] = len(yt)
+        if keep_rows:
+            res["rows"] = (np.concatenate(row_idx), yt, pred)
+            res["reject_rows"] = (conf, unexp)
+        out[level] = LevelScores(**res)
+    config = {
+        "estimator": "inversion",
+        "surface": SURFACE_MODE,
+        "noise": noise,
+        "seed": seed,
+        "fold_seed": fold_seed,
+        "dedup": not noise,
+        "n_outer": len(splits),
+        "n_inner": len(splits[0].inner),
+    }
+    return BandSetScores(
+        level1=out.get("level1"),
+        level2=out.get("level2"),
+        config=config,
+        order=tuple(levels),
+    )
