@@ -35,8 +35,15 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
+from .folds import class_balanced_weights
 from .names import CanonicalMapping
-from .photometry import CCT_MAX_K, CCT_MIN_K, G_CAP, K_M_LM_PER_W
+from .photometry import (
+    CCT_MAX_K,
+    CCT_MIN_K,
+    G_CAP,
+    K_M_LM_PER_W,
+    metrics as photometric_metrics,
+)
 
 
 METRICS: tuple[str, ...] = ("LER", "G", "CCT")
@@ -101,11 +108,9 @@ def lamp_truth(
     kept as a valid value) and CCT [K] (valid only where meaningful, i.e.
     `CCT_flag` False). Spectra must cover 380-780 nm on a 1 nm grid.
     """
-    from .photometry import metrics
-
     w = np.asarray(wavelength_nm, float)
     vis = (w >= 380.0) & (w <= 780.0)
-    m = metrics(np.asarray(spectra, float)[:, vis], w[vis])
+    m = photometric_metrics(np.asarray(spectra, float)[:, vis], w[vis])
     values = np.stack(
         [np.asarray(m["LER"]), np.asarray(m["G"]), np.asarray(m["CCT"])], 1
     )
@@ -282,7 +287,6 @@ class LampTable:
         """Class-balanced scenario weights over `lamps` (sum 1): each class the
         same, each lamp of a class the same, each scenario of a lamp the same."""
         lamps = np.asarray(lamps, int)
-        from .folds import class_balanced_weights
 
         lamp_w = np.zeros(self.n_lamps)
         lamp_w[lamps] = class_balanced_weights(self.classes[lamps])
@@ -303,7 +307,6 @@ class LampTable:
     def spread(self, lamps=None) -> np.ndarray:
         """Class-balanced standard deviation of each metric over `lamps` (model
         space: mired for CCT). The joint loss divides each metric's error by it."""
-        from .folds import class_balanced_weights
 
         lamps = np.arange(self.n_lamps) if lamps is None else np.asarray(lamps, int)
         y = np.asarray(to_model_space(self.truth))[lamps]

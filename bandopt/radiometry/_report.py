@@ -15,12 +15,21 @@ from pathlib import Path
 
 import numpy as np
 
+from ..datasets import atmosphere as atm
+from ..forward import cropped
+from ..results import recommended_band_set
 from ..scene import DEFAULT_SURFACES, LIGHTING_CLASSES, build_scenarios
-from ..sensor import SensorParams
+from ..sensor import (
+    REFERENCE_SENSORS,
+    SensorParams,
+    reference_sensor,
+    resolve_band_set,
+)
 from ._background import (
     BACKGROUND_UNCERTAINTY_FACTOR,
     NIGHT_SKY_MAG_ARCSEC2,
 )
+from ._bitdepth import bit_depth_rows
 from ._distributions import GROUPS, RadianceGroups, distribution_rows, radiance_groups
 from ._limits import (
     LimitRule,
@@ -116,7 +125,6 @@ class RadiometryConfig:
 def resolve_atmospheres(spec) -> tuple[list, str]:
     """`"all"` -> every 6S combination, `"none"` -> no atmosphere, else the
     list itself; "all" falls back to "none" when the tables are missing."""
-    from ..datasets import atmosphere as atm
 
     if isinstance(spec, str) and spec.lower() == "none":
         return ["none"], "no atmosphere (T = 1, no path radiance)"
@@ -133,8 +141,6 @@ def resolve_atmospheres(spec) -> tuple[list, str]:
 
 
 def default_band_set():
-    from ..sensor import reference_sensor
-
     return reference_sensor(DEFAULT_BAND_SET)
 
 
@@ -145,9 +151,6 @@ def load_band_set(source: str):
 
     "ours" is not resolved here (that would read results/ behind the user's
     back): name the recommendation file, or run `make radiometry`."""
-    from ..results import recommended_band_set
-    from ..sensor import resolve_band_set
-
     if str(source).strip().lower() in ("ours", "recommended"):
         raise ValueError(
             f"--bands {source!r}: name the file holding the bands, e.g. "
@@ -456,7 +459,6 @@ def _slug(name: str) -> str:
 
 def analyse(scen, bands, label: str, params: SensorParams, rule: LimitRule) -> dict:
     """Distributions, limits, sensitivity and SNR/NER of one band set."""
-    from ..forward import cropped
 
     groups = radiance_groups(scen, bands)
     f, resp = cropped(scen, bands)
@@ -497,8 +499,6 @@ def compute(
       file, with `mode` and `settings` (what made it);
     - `manifest_config`: the configuration for the provenance manifest.
     """
-    from ..sensor import REFERENCE_SENSORS
-    from ._bitdepth import bit_depth_rows
 
     t0 = time.perf_counter()
     config = RadiometryConfig() if config is None else config
