@@ -84,7 +84,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float
 
-from .spectra import GRID_1NM
+from .spectra import GRID_1NM, planck_radiance
 
 
 # --------------------------------------------------------------------------------------
@@ -225,9 +225,9 @@ def _phosphor(w: Array, centre_nm: Array, fwhm_ev: Array, skew: Array) -> Array:
 
 
 def _planck(w: Array, temperature_k: Array) -> Array:
-    """Planck's law shape (`Planck1901`), unit area on the grid."""
-    x = 1.438776877e7 / (w * temperature_k)  # c2 / (λ T), c2 in nm K
-    return _unit_area(w**-5 / jnp.expm1(x), w)
+    """Planck's law shape (`Planck1901`, `spectra.planck_radiance`), unit
+    area on the grid."""
+    return _unit_area(planck_radiance(w, jnp.asarray(temperature_k)), w)
 
 
 def _na_d_reversed(w: Array, p: dict, prefix: str = "") -> Array:
