@@ -84,6 +84,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float
 
+from .photometry import K_M_LM_PER_W
 from .spectra import GRID_1NM, planck_radiance
 
 
@@ -523,7 +524,7 @@ def per_lumen(wavelength_nm: np.ndarray, values: np.ndarray) -> np.ndarray:
 
     v = SDS_LEFS["CIE 1924 Photopic Standard Observer"]
     vis = (wavelength_nm >= 380.0) & (wavelength_nm <= 780.0)
-    lum = 683.0 * np.trapezoid(
+    lum = K_M_LM_PER_W * np.trapezoid(
         values[..., vis] * v[wavelength_nm[vis]], wavelength_nm[vis], axis=-1
     )
     return values / np.asarray(lum)[..., None]

@@ -54,3 +54,21 @@ def test_default_fold_counts(n):
     splits = nested_lamp_splits(classes, seed=0)
     assert len(splits) == N_OUTER_FOLDS
     assert all(len(s.inner) == N_INNER_FOLDS for s in splits)
+
+
+def test_lamp_models_use_the_one_planck_and_k_m():
+    """`lampmodels`' continuum is `spectra.planck_radiance` (unit area) and its
+    per-lumen scaling uses `photometry.K_M_LM_PER_W`."""
+    import colour
+
+    import bandopt.lampmodels as lampmodels
+
+    w = np.arange(380.0, 901.0)
+    for t in (700.0, 2856.0, 6500.0):
+        shape = np.asarray(lampmodels._planck(jnp.asarray(w), jnp.asarray(t)))
+        ref = spectra.planck_radiance(w, t)
+        np.testing.assert_allclose(shape, ref / np.trapezoid(ref, w), rtol=1e-12)
+    s = lampmodels.per_lumen(w, spectra.planck_radiance(w, 2856.0))
+    v = colour.SDS_LEFS["CIE 1924 Photopic Standard Observer"][w[:401]]
+    lum = photometry.K_M_LM_PER_W * np.trapezoid(s[:401] * v, w[:401])
+    assert lum == pytest.approx(1.0, rel=1e-12)

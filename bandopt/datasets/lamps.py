@@ -731,7 +731,7 @@ def _classify(r: _Raw, m: dict) -> tuple[str, str | None, str | None, str | None
         elif not white:
             excluded = (
                 f"coloured LED (|Duv| = {abs(duv):.3f}, CCT = {cct:.0f} K: beyond "
-                f"|Duv| <= {COLOURED_DUV} and 1000-25000 K)"
+                f"|Duv| <= {COLOURED_DUV} and {CCT_MIN_K:g}-{CCT_MAX_K:g} K)"
             )
             return "led", None, None, excluded
         else:
@@ -739,7 +739,7 @@ def _classify(r: _Raw, m: dict) -> tuple[str, str | None, str | None, str | None
     elif level2.startswith("fluorescent") and not white:
         excluded = (
             f"coloured tube (|Duv| = {abs(duv):.3f}, CCT = {cct:.0f} K: beyond "
-            f"|Duv| <= {COLOURED_DUV} and 1000-25000 K)"
+            f"|Duv| <= {COLOURED_DUV} and {CCT_MIN_K:g}-{CCT_MAX_K:g} K)"
         )
         return "fluorescent", None, None, excluded
     elif level2 == "hps" and cct >= WHITE_SON_MIN_CCT_K:
