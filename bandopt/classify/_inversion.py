@@ -27,7 +27,6 @@ predicted but are not scored: each has a confusion column and predicting one
 counts as a miss.
 """
 
-import dataclasses
 import functools
 from collections.abc import Sequence
 
@@ -189,11 +188,11 @@ def evaluate_inversion(
             always=always,
         )
         te = keep & table.rows_of_lamps(s.test)
+        res = inv.predict(rad[te])
         # every pixel typed; the unexplained flag is applied by the reject option
-        res = dataclasses.replace(inv, threshold=np.inf).predict(rad[te])
         types = hierarchical_types(res)
         labels = (res.level1_labels, res.level2_labels)
-        per_fold.append((s, inv, te, types, res.misfit > inv.threshold, labels))
+        per_fold.append((s, inv, te, types, res.unexplained, labels))
 
     out = {}
     for level in levels:

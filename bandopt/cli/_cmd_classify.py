@@ -36,8 +36,8 @@ def register(subparsers):
         default="knn",
         choices=("knn", "inversion"),
         help="knn: one-vs-all KNN on band features (default: it scored the "
-        "higher macro F1 in 11 of 12 band-set x noise cases of the quick preset, "
-        "see the user guide); inversion: the physics-based inversion of "
+        "higher macro F1 than the inversion on the quick and default scenario "
+        "sets, see the user guide); inversion: the physics-based inversion of "
         "`bandopt evaluate`, lamp type read from its posterior (level 1, then "
         "level 2 inside that family), pixels it flags unexplained rejected",
     )
