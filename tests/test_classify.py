@@ -363,3 +363,24 @@ def test_cli_bad_band_name(capsys):
 
     assert main(["classify", "--bands", "no-such-sensor", "--scenarios", "quick"]) == 2
     assert "no-such-sensor" in capsys.readouterr().err
+
+
+def test_equidistant_training_rows_vote_by_class_frequency():
+    """A one-band sensor's features are all 0: every training row is equally
+    near, and the vote follows the class frequencies (to one vote) instead of
+    the kd-tree's order; distinct features still use the kd-tree."""
+    from bandopt.classify import neighbour_labels, vote_proba
+
+    rng = np.random.default_rng(0)
+    y = rng.choice(3, size=600, p=[0.6, 0.3, 0.1])
+    x = np.zeros((600, 1))
+    nbr = neighbour_labels(x, y, np.zeros((7, 1)), 50)
+    assert nbr.shape == (7, 50) and np.all(nbr == nbr[:1])
+    freq = np.bincount(y, minlength=3) / len(y)
+    for k in (1, 5, 10, 50):
+        p = vote_proba(nbr, k, 3)[0]
+        assert np.all(np.abs(p - freq) <= 1.0 / k + 1e-12), (k, p, freq)
+    # distinct features: the true nearest neighbours
+    xs = np.arange(600, dtype=float)[:, None]
+    got = neighbour_labels(xs, y, np.array([[10.2]]), 3)
+    np.testing.assert_array_equal(got[0], y[[10, 11, 9]])
