@@ -11,6 +11,8 @@ def configure(*, x64: bool = True, cache_dir: str | os.PathLike | None = None) -
     The cache lives in `$BANDOPT_JAX_CACHE` or `~/.cache/bandopt/jax`.
     """
     os.environ.setdefault("JAX_PLATFORMS", "cpu")
+    # jax only here: JAX_PLATFORMS must be set first, and `import bandopt`
+    # stays free of JAX (start-up time)
     import jax
 
     jax.config.update("jax_enable_x64", x64)

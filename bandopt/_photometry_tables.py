@@ -47,6 +47,7 @@ def observer_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     V(λ) is the CIE 1924 photopic observer; the CMFs are the CIE 1931 2°
     standard observer x̄, ȳ, z̄. [nm], [1], [1]
     """
+    # start-up time: colour takes ~1.5 s to import; tables are read at first use
     import colour
 
     wavelength_nm = np.arange(OBSERVER_START_NM, OBSERVER_END_NM + 0.5, 1.0)
@@ -68,6 +69,7 @@ def observer_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 @functools.cache
 def planckian_table_ohno2013() -> np.ndarray:
     """Ohno (2013) Planckian table, rows `(T [K], u, v)` in CIE 1960 UCS. (n, 3)"""
+    # start-up time: colour takes ~1.5 s to import
     from colour.colorimetry import handle_spectral_arguments
     from colour.temperature.ohno2013 import planckian_table
 
@@ -85,6 +87,7 @@ def isotemperature_lines_robertson1968() -> np.ndarray:
     on the Planckian locus and `slope` the line's slope dv/du [1], as tabulated
     (colour's `DATA_ISOTEMPERATURE_LINES_ROBERTSON1968`).
     """
+    # start-up time: colour takes ~1.5 s to import
     from colour.temperature.robertson1968 import (
         DATA_ISOTEMPERATURE_LINES_ROBERTSON1968,
     )

@@ -67,11 +67,19 @@ import numpy as np
 from jax.scipy.special import logsumexp
 
 from .datasets import surfaces as surf_mod
-from .datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT
-from .estimate import CCT_RANGE_K, METRICS, MIRED, lamp_truth
-from .folds import class_balanced_weights
+from .datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT, library
+from .estimate import (
+    CCT_RANGE_K,
+    METRICS,
+    MIRED,
+    fit_estimator,
+    fit_kernel_estimator,
+    lamp_truth,
+)
+from .folds import class_balanced_weights, stratified_lamp_folds
 from .forward import band_weights_on as forward_band_weights
 from .photometry import G_CAP, K_M_LM_PER_W
+from .scene import build_scenarios
 
 
 SURFACE_MODES = ("unknown", "class", "measured")
@@ -622,8 +630,6 @@ def library_lamps(wavelength_nm, *, scored: bool) -> LampSet:
     """Measured library lamps on a grid: the scored ones (`scored=True`) or the
     measured lamps of classes too small to score (`scored=False`, e.g.
     low-pressure sodium), which only ever train."""
-    from .datasets.lamps import library
-
     lib = library(wavelength_nm=np.asarray(wavelength_nm, float)).select()
     keep = [
         i
@@ -1048,8 +1054,6 @@ def context_setup(ctx):
 
 
 def _context_setup(ctx):
-    from .scene import build_scenarios
-
     grid = ctx.wavelength_nm
     lamps = library_lamps(grid, scored=True)
     if lamps.ids != tuple(ctx.lamp_ids):
@@ -1115,8 +1119,6 @@ def cross_validate(
     mired), interval coverage, level-1 correctness and unexplained rate
     (inversion only) and the number of rows whose estimate left the physical
     range (must be 0)."""
-    from .estimate import fit_estimator, fit_kernel_estimator
-
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
     rad = ctx.radiance(bands)
@@ -1314,8 +1316,6 @@ def leave_one_class_out(ctx, bands, *, surface_mode: str = "unknown", seed: int 
     """Unseen lamp types: for every scored level-2 class, fit on all other
     classes (inner folds: 2 class-stratified lamp folds of those) and score its
     lamps. One record per test lamp as `cross_validate` (fold = the class)."""
-    from .folds import stratified_lamp_folds
-
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
     rad = ctx.radiance(bands)

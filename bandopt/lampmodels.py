@@ -84,6 +84,8 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float
 
+from .datasets import nir as nir_mod
+from .datasets.lamps import LEVEL2_PARENT, LampLibrary, LampRecord, library
 from .photometry import K_M_LM_PER_W
 from .spectra import GRID_1NM, planck_radiance
 
@@ -520,6 +522,7 @@ def visible_normalised(wavelength_nm: np.ndarray, values: np.ndarray) -> np.ndar
 def per_lumen(wavelength_nm: np.ndarray, values: np.ndarray) -> np.ndarray:
     """Scale spectra to one lumen, the library's convention: 683 ∫_380^780 V S dλ
     = 1 (trapezoid on the grid, colour's CIE 1924 V). [W nm⁻¹ lm⁻¹]"""
+    # start-up time: colour takes ~1.5 s to import
     from colour import SDS_LEFS
 
     v = SDS_LEFS["CIE 1924 Photopic Standard Observer"]
@@ -801,8 +804,6 @@ def _measured(lib, classes):
 
 @functools.cache
 def _fit_library_lamp(lamp_id: str) -> tuple[Fit, float]:
-    from .datasets.lamps import library
-
     lib = library()
     i = lib.index(lamp_id)
     r = lib.records[i]
@@ -821,8 +822,6 @@ def fit_library_lamp(lamp_id: str) -> Fit:
 def calibrate(level2: str, train_lamps: Sequence[str] | None = None) -> Calibration:
     """Calibrate the model of `level2` on its measured lamps among `train_lamps`
     (default: every measured, non-excluded lamp of the class in `library()`)."""
-    from .datasets.lamps import library
-
     family_of(level2)
     lib = library()
     members = [r.id for _, r in _measured(lib, (level2,))]
@@ -857,9 +856,6 @@ def sample_library(
     the classes it lists (e.g. calibrations made once per cross-validation
     fold).
     """
-    from .datasets import nir
-    from .datasets.lamps import LEVEL2_PARENT, LampLibrary, LampRecord, library
-
     if n_per_class < 1:
         raise ValueError(f"n_per_class must be >= 1 (got {n_per_class}).")
     lib = library()
@@ -880,13 +876,13 @@ def sample_library(
         validated = None
         if beyond.any():
             if extend_nir:
-                tech = nir.technology_of(level2, level1)
+                tech = nir_mod.technology_of(level2, level1)
                 inside = ~beyond
                 for j in range(n_per_class):
-                    spectra[j, beyond] = nir.extend_spectrum(
+                    spectra[j, beyond] = nir_mod.extend_spectrum(
                         w[inside], spectra[j, inside], tech, w[beyond]
                     )
-                validated = nir.VALIDATED.get(tech, False)
+                validated = nir_mod.VALIDATED.get(tech, False)
             else:
                 spectra[:, beyond] = np.nan
         vis = (w >= 380.0) & (w <= 780.0)

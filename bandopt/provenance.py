@@ -43,6 +43,11 @@ def _git(*args: str) -> str | None:
     return out.stdout.strip() or None
 
 
+def git_commit() -> str | None:
+    """The commit (HEAD) of the git checkout holding bandopt; None outside git."""
+    return _git("rev-parse", "HEAD")
+
+
 def data_versions() -> dict:
     """Content hashes of the package data files (lamps, surfaces, atmospheres, Moon)."""
     root = Path(__file__).parent / "datasets" / "data"
@@ -60,6 +65,8 @@ def data_versions() -> dict:
 def lamp_library_info() -> dict:
     """Which lamp sets the library was built from (spectra per set; the LSPDD
     is switchable) and whether the spectra carry the near-infrared extension."""
+    # start-up time: bandopt.results and the report import this module
+    # without JAX
     from .datasets.lamps import library
 
     lib = library()  # every experiment uses the default: extension on
@@ -93,7 +100,7 @@ def manifest(*, seed: int | None = None, config: dict | None = None, **extra) ->
             versions[name] = None
     status = _git("status", "--porcelain", "--untracked-files=no")
     return {
-        "git_commit": _git("rev-parse", "HEAD"),
+        "git_commit": git_commit(),
         "git_dirty": bool(status) if status is not None else None,
         "packages": versions,
         "python": sys.version.split()[0],

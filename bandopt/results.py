@@ -14,19 +14,19 @@ import sys
 import tempfile
 from pathlib import Path
 
+from .provenance import git_commit
+
 
 RESULTS_DIR = Path(os.environ.get("BANDOPT_RESULTS", "results"))
 RECOMMENDATION = "recommendation.json"
 
 
 def _made_by(mode, settings) -> dict:
-    from .provenance import _git
-
     return {
         "mode": mode,
         "settings": settings,
         "command_line": list(sys.argv),
-        "git_commit": _git("rev-parse", "HEAD"),
+        "git_commit": git_commit(),
         "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
     }
 

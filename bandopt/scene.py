@@ -90,6 +90,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from .datasets import atmosphere as atm_mod, moon as moon_mod, surfaces as surf_mod
+from .datasets.lamps import library
 from .names import CanonicalMapping, canonical_key
 from .spectra import GRID_1NM, planck_radiance, trapezoid_weights
 
@@ -279,6 +281,7 @@ def uplight_profiles() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     on the files' 1° grid) (p, z) [cd lm⁻¹ = sr⁻¹]; downward fraction `d` of
     the flux (zenith 90-180°, the 90° sample shared half and half) (p,) [1].
     """
+    # cycle: bandopt.spatial imports this module (through classify, forward)
     from .spatial import read_lop
 
     zen, inten, down = [], [], []
@@ -705,9 +708,6 @@ def build_scenarios(
     - `fire_temperatures_k`: fire scenes (blackbody, `fire_fraction` of the pixel
       burning with `fire_emissivity`).
     """
-    from .datasets import atmosphere as atm_mod, moon as moon_mod, surfaces as surf_mod
-    from .datasets.lamps import library
-
     grid = np.asarray(wavelength_nm, float)
     hood = resolve_neighbourhood(neighbourhood)
     up_factor = uplight_factor(uplight_ratio, view_zenith_deg, uplight_model)

@@ -35,6 +35,7 @@ import numpy as np
 from .. import inversion as inv_mod
 from ..datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT
 from ..forward import ScenarioTable, resolve_level
+from ..scene import Neighbourhood, build_scenarios
 from ._evaluate import (
     REJECT_GRID,
     BandSetScores,
@@ -57,8 +58,6 @@ def inversion_conditions(table: ScenarioTable) -> inv_mod.Conditions:
     """The inversion's scene conditions (atmospheres, neighbourhood, brightest
     Moon state) of the scenario set behind `table`, rebuilt from its
     `config` with one lamp and one surface."""
-    from ..scene import Neighbourhood, build_scenarios
-
     cfg = table.config
     hood = cfg.get("neighbourhood")
     extra = {} if hood is None else {"neighbourhood": Neighbourhood(**hood)}

@@ -28,6 +28,7 @@ class holds less than 60 % of the (normalised) one-vs-all votes. [1]"""
 
 def make_classifier(k: int):
     """`OneVsRestClassifier(KNeighborsClassifier(n_neighbors=k))`, kd-tree."""
+    # start-up time: scikit-learn takes ~1.4 s to import
     from sklearn.multiclass import OneVsRestClassifier
     from sklearn.neighbors import KNeighborsClassifier
 
@@ -49,6 +50,7 @@ def neighbour_labels(
     instead of by tree order: every test row gets the same label sequence, the
     training labels interleaved so that the first `k` of them follow the
     class frequencies to within one vote."""
+    # start-up time: scikit-learn takes ~1.4 s to import
     from sklearn.neighbors import NearestNeighbors
 
     k = min(int(k_max), len(train_x))

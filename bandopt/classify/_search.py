@@ -33,6 +33,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optimistix as optx
 
 from ..forward import ScenarioTable, radiance_from_response
 from ..names import validate_method
@@ -287,8 +288,6 @@ def surrogate_search(
     """Minimise `soft_nn_loss` with `optimistix.BFGS` from `start` (unit box;
     default `box.even_start()`), at most `max_steps` steps (one loss and
     gradient each). The result's inner macro F1 is the real KNN score."""
-    import optimistix as optx  # start-up time: only the surrogate search uses it
-
     u0 = (
         box.even_start()
         if start is None

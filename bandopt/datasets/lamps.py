@@ -405,6 +405,7 @@ class _Raw:
 
 
 def _colour_sources() -> list[_Raw]:
+    # start-up time: colour takes ~1.5 s to import (only to build the library)
     import colour
     from colour.colorimetry.datasets.light_sources import sds as light_sources
 
@@ -639,6 +640,7 @@ def _visible_5nm(w, s):
 
 def _cct_duv(w, s):
     """CCT (Ohno 2013) and Duv with colour-science on the 1 nm-interpolated spectrum."""
+    # start-up time: colour takes ~1.5 s to import (only to build the library)
     import colour
 
     grid = np.arange(380.0, 781.0, 1.0)
@@ -668,6 +670,7 @@ MODELLED_FIRE_K = (700.0, 800.0, 900.0, 1000.0, 1100.0, 1200.0)
 
 
 def _per_lumen(wavelength_nm, values):
+    # start-up time: colour takes ~1.5 s to import
     from colour import SDS_LEFS
 
     v = SDS_LEFS["CIE 1924 Photopic Standard Observer"]
@@ -681,6 +684,7 @@ def _colour_metrics(raws: list[_Raw]) -> dict[str, np.ndarray]:
     """CCT (Ohno 2013), Duv, excitation purity and dominant wavelength (against
     illuminant E) and the share of visible power below 500 nm, per spectrum,
     from its 1 nm-interpolated 380-780 nm part (same numbers as `_cct_duv`)."""
+    # start-up time: colour takes ~1.5 s to import (only to build the library)
     import colour
 
     grid = np.arange(380.0, 781.0, 1.0)

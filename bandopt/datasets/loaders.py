@@ -317,6 +317,7 @@ def read_prn(path: str | Path, *, max_wavelength_nm: float = 900.0) -> LoadedSpe
 def read_tm27(path: str | Path) -> LoadedSpectrum:
     """IES TM-27-14 XML spectral data, read with colour-science
     (`colour.SpectralDistribution_IESTM2714`). Photon units are converted."""
+    # start-up time: colour takes ~1.5 s to import (only TM-27 files need it)
     import colour
 
     path = Path(path)

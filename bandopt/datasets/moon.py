@@ -55,6 +55,8 @@ import math
 import re
 from importlib import resources
 
+import ephem
+import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
@@ -193,6 +195,7 @@ def _grid(wavelength_nm: ArrayLike, name: str = "wavelength_nm") -> np.ndarray:
 @functools.lru_cache(maxsize=1)
 def _g173_extraterrestrial() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """ASTM G173-03 extraterrestrial spectrum and its running integral (pvlib)."""
+    # start-up time: pvlib takes ~1 s to import
     import pvlib.spectrum
 
     table = pvlib.spectrum.get_reference_spectra(standard="ASTM G173-03")
@@ -305,6 +308,7 @@ def lunar_irradiance_toa(
 
 @functools.lru_cache(maxsize=1)
 def _photopic_table() -> tuple[np.ndarray, np.ndarray]:
+    # start-up time: colour takes ~1.5 s to import
     import colour
 
     lef = colour.SDS_LEFS["CIE 1924 Photopic Standard Observer"]
@@ -326,8 +330,6 @@ def illuminance_lx(
     - `irradiance_w_m2_nm`: spectral irradiance, last axis wavelength. [W m⁻² nm⁻¹]
     - `wavelength_nm`: its grid. [nm]
     """
-    import jax.numpy as jnp
-
     w = _grid(wavelength_nm)
     lo, hi = VISIBLE_NM
     if w[0] > lo or w[-1] < hi:
@@ -528,8 +530,6 @@ def moon_state(
     the Moon's heliocentric distance; selenographic geometry as in the module
     docstring. References: `Rhodes2011`.
     """
-    import ephem
-
     when = _as_utc(date_utc)
     lat, lon = _check_place(lat_deg, lon_deg)
     observer = ephem.Observer()

@@ -153,6 +153,7 @@ def is_single_band_emitter(wavelength_nm, values) -> bool:
     width is >= `SINGLE_BAND_MIN_FWHM_NM`: an LED, extended as `led` (no
     discharge lines) whatever library lamp it resembles. All 14 library
     spectra with a single band >= 10 nm wide are LEDs."""
+    # start-up time: scipy.signal adds ~0.4 s to the import
     from scipy.signal import find_peaks, peak_widths
 
     w = np.asarray(wavelength_nm, float)
@@ -255,6 +256,7 @@ def calibration_spectra(technology: str, lspdd: bool = True) -> list[tuple]:
     """(id, wavelength [nm], values) of the library's lamps of `technology`
     measured to 900 nm (White SON, excluded lamps and spectra failing
     `lamps.nir_quality` left out)."""
+    # cycle: .lamps imports this module
     from .lamps import measured_nir_spectra
 
     return [
@@ -419,6 +421,7 @@ def validate_extension(lspdd: bool = True) -> list[dict]:
     has a single measured lamp: then the check is in-sample), and per band the
     measured and extended band-integrated power and their relative error.
     """
+    # cycle: .lamps imports this module
     from .lamps import measured_nir_spectra
 
     grid = np.arange(380.0, 900.01, 1.0)

@@ -392,10 +392,10 @@ def plot_histograms(
 ) -> Path:
     """Histograms of log10 band radiance per group, one panel per band, with
     the detection limit, saturation, scene requirement and background drawn."""
-    import matplotlib
+    import matplotlib  # plotting only: start-up time
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # after matplotlib.use("Agg")
 
     nb = len(groups.band_names)
     ncol = min(nb, 3)

@@ -14,6 +14,7 @@ import datetime as _dt
 import html
 from pathlib import Path
 
+from . import _sections
 from ._checks import CHECKS, ReportDriftError, check_consistency
 from ._html import page
 from ._sections import EXPERIMENTS, Ctx
@@ -81,8 +82,6 @@ def build_report(results_dir="results", out_dir=None, *, strict: bool = True
         ReportInputError: a results file is malformed (names file and field).
         FileNotFoundError: `results_dir` does not exist.
     """
-    from . import _sections
-
     results_dir = Path(results_dir)
     if not results_dir.is_dir():
         raise FileNotFoundError(f"{results_dir}: no such results folder.")

@@ -296,10 +296,10 @@ def band_count(ctx: Ctx) -> str:
     box = ctx.need("search")
     if box:
         return box
-    import matplotlib
+    import matplotlib  # plotting only: start-up time
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # after matplotlib.use("Agg")
 
     C = "search/compare.json"
     comp = src.load(C)

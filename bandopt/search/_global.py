@@ -20,6 +20,7 @@ import time
 from collections.abc import Callable
 
 import jax
+import nlopt
 import numpy as np
 
 from ..names import validate_method
@@ -61,8 +62,6 @@ class NloptObjective:
         self._t0: float | None = None
 
     def __call__(self, x: np.ndarray, grad: np.ndarray) -> float:
-        import nlopt  # nlopt: start-up time, imported on first use
-
         if self.n_evals >= self.max_evals:
             raise nlopt.ForcedStop("evaluation budget reached")
         if self._t0 is None:
@@ -123,8 +122,6 @@ def global_search(
     `local_max_evals`, `local_ftol_rel`: stopping rules of each LBFGS local
     search in MLSL. `population`: nlopt's population (0: its default).
     """
-    import nlopt  # nlopt: start-up time, imported on first use
-
     key = validate_method(algorithm, ALGORITHMS, "algorithm")
     if max_evals < 1:
         raise ValueError(f"max_evals must be >= 1, got {max_evals}.")

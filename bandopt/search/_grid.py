@@ -10,6 +10,7 @@ import dataclasses
 import itertools
 import time
 from collections.abc import Callable
+from math import comb
 
 import numpy as np
 
@@ -33,8 +34,6 @@ def grid_pairs(space, step_nm: float = 10.0) -> np.ndarray:
 
 
 def n_combinations(k: int, n: int) -> int:
-    from math import comb
-
     return comb(k, n)
 
 

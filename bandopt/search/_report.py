@@ -72,7 +72,7 @@ def plot_bands_over_lamps(bands, path, *, title: str = "") -> None:
     import matplotlib  # plotting only: start-up time
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # after matplotlib.use("Agg")
 
     lib = library().select(scored_only=True)
     wl = lib.wavelength_nm

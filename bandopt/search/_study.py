@@ -16,8 +16,9 @@ from collections.abc import Callable
 import jax.numpy as jnp
 import numpy as np
 
+from .. import inversion
 from ..datasets import atmosphere
-from ..estimate import fit_estimator, lamp_abs_errors
+from ..estimate import CCT_RANGE_K, fit_estimator, lamp_abs_errors
 from ..sensor import SensorParams, noise_electrons, signal_electrons
 from ..sensor.reference import reference_sensor
 from ._problem import Space
@@ -53,9 +54,6 @@ def _inversion_fit(ctx, bands, rad, train, inner) -> Callable:
     `train`; `predict` inverts only the rows of lamps outside `train` (the
     outer test lamps; other rows are NaN). A null CCT (the posterior says
     no meaningful CCT) counts as 25000 K, the far end of the range."""
-    from .. import inversion
-    from ..estimate import CCT_RANGE_K
-
     inv = inversion.fit_for_context(ctx, bands, rad, train, inner)
     held = ~np.isin(ctx.table.lamp_of, np.asarray(train))
 

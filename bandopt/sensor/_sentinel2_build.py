@@ -20,6 +20,7 @@ BANDS = ("01", "02", "03", "04", "05", "06", "07", "08", "8A", "09")
 
 
 def build(out: Path = OUT) -> Path:
+    # optional dependency Py6S (extra `atmos`)
     from Py6S import PredefinedWavelengths as P
 
     grid = np.round(np.arange(400.0, 1000.0 + 1e-9, 2.5), 2)

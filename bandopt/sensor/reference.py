@@ -24,6 +24,7 @@ Names are matched ignoring case and separators (`"VIIRS_DNB"` is
 import dataclasses
 import os
 from collections.abc import Callable
+from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
@@ -82,8 +83,6 @@ def _edges(title: str, edges, names=None) -> Callable[[], BandSet]:
 
 
 def _viirs_tabulated() -> TabulatedBands:
-    from importlib.resources import files
-
     path = files("bandopt.sensor") / "data" / "viirs_dnb_relative_response.dat"
     with path.open("r") as fh:
         table = np.loadtxt(fh, skiprows=1)
@@ -98,6 +97,7 @@ def _viirs_tabulated() -> TabulatedBands:
 
 
 def _nightsat() -> TabulatedBands:
+    # start-up time: colour takes ~1.5 s to import
     from colour.colorimetry import SDS_LEFS_PHOTOPIC, SDS_LEFS_SCOTOPIC
 
     tm = _edges(

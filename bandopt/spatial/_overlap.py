@@ -83,7 +83,7 @@ def per_type_radiance(scene: SceneImage, bands) -> np.ndarray:
 
 def _macro_f1(truth, pred):
     """Macro F1 over the classes present in `truth` (NaN when empty)."""
-    from sklearn.metrics import f1_score
+    from sklearn.metrics import f1_score  # sklearn: start-up time
 
     if len(truth) == 0:
         return float("nan")

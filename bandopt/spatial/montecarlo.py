@@ -23,7 +23,7 @@ import numpy as np
 def available() -> bool:
     """True when `mitsuba` imports and has the `scalar_rgb` variant."""
     try:
-        import mitsuba as mi
+        import mitsuba as mi  # optional dependency (extra `render`)
     except ImportError:
         return False
     return "scalar_rgb" in mi.variants()
@@ -47,7 +47,7 @@ def render_point_light(
     `buildings`: boxes `(x0, y0, x1, y1, height_m)` [m] on the plane; they cast
     shadows and their roofs are seen by the nadir camera. Row 0 of the image is
     +y, column 0 is -x (Mitsuba's film orientation)."""
-    import mitsuba as mi
+    import mitsuba as mi  # optional dependency (extra `render`)
 
     mi.set_variant("scalar_rgb")
     t = mi.ScalarTransform4f
