@@ -83,7 +83,11 @@ def _atmosphere(cfg: Config):
 
     if not atm.tables_available():
         return None, "6S tables not installed (`make atmospheres`); rendered without"
-    return cfg.atmosphere, "6S upward total transmittance at nadir"
+    return cfg.atmosphere, (
+        "6S upward transmittance at nadir: direct for the pixel's own ground, "
+        "diffuse for k = 0.1 x the tile's mean (scene.DEFAULT_NEIGHBOURHOOD, "
+        "lit street in a dark district; bandopt.spatial.render)"
+    )
 
 
 def scenes(cfg: Config):
