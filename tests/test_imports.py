@@ -9,9 +9,14 @@
   of bandopt: `bandopt.classify` may not import `bandopt.search._problem` or
   `bandopt.provenance._git`. Modules `bandopt._x` are private to the package
   as a whole, so every part of it may import them.
+- Layers: a lower module never imports a higher one, not even late inside a
+  function (checked in a fresh interpreter, so nothing is imported already).
 """
 
 import ast
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -62,16 +67,13 @@ def unexplained_local_imports(source: str) -> list[int]:
     return sorted(set(bad))
 
 
-def private_imports_across_parts(
-    source: str, module: tuple[str, ...], is_package: bool
-):
-    """`(line, imported module, private parts)` for every import of a private
-    module or name from another top-level part of bandopt than `module`'s."""
-    part = module[1] if len(module) > 1 else None  # None: bandopt/__init__.py
-    bad = []
+def imports(source: str, module: tuple[str, ...], is_package: bool):
+    """`(line, imported module, imported names)` of every import statement in
+    `source` (at any depth), relative imports resolved against `module`."""
+    out = []
     for node in ast.walk(ast.parse(source)):
         if isinstance(node, ast.Import):
-            targets = [(tuple(a.name.split(".")), ()) for a in node.names]
+            out += [(node.lineno, tuple(a.name.split(".")), ()) for a in node.names]
         elif isinstance(node, ast.ImportFrom):
             if node.level:
                 base = module if is_package else module[:-1]
@@ -79,18 +81,40 @@ def private_imports_across_parts(
                 target = base + (tuple(node.module.split(".")) if node.module else ())
             else:
                 target = tuple(node.module.split("."))
-            targets = [(target, tuple(a.name for a in node.names))]
-        else:
+            out.append((node.lineno, target, tuple(a.name for a in node.names)))
+    return out
+
+
+def private_imports_across_parts(
+    source: str, module: tuple[str, ...], is_package: bool
+):
+    """`(line, imported module, private parts)` for every import of a private
+    module or name from another top-level part of bandopt than `module`'s."""
+    part = module[1] if len(module) > 1 else None  # None: bandopt/__init__.py
+    bad = []
+    for line, target, names in imports(source, module, is_package):
+        if target[0] != "bandopt" or len(target) < 2 or target[1] == part:
             continue
-        for target, names in targets:
-            if target[0] != "bandopt" or len(target) < 2 or target[1] == part:
-                continue
-            private = [p for p in target[2:] if p.startswith("_")] + [
-                n for n in names if n.startswith("_") and not n.startswith("__")
-            ]
-            if private:
-                bad.append((node.lineno, ".".join(target), private))
+        private = [p for p in target[2:] if p.startswith("_")] + [
+            n for n in names if n.startswith("_") and not n.startswith("__")
+        ]
+        if private:
+            bad.append((line, ".".join(target), private))
     return bad
+
+
+def imports_of(
+    source: str, module: tuple[str, ...], is_package: bool, other: str
+) -> list[int]:
+    """Lines of `source` that import module `other` or a part of it, at any
+    depth (`from .. import classify` counts as importing `bandopt.classify`)."""
+    want = tuple(other.split("."))
+    hits = []
+    for line, target, names in imports(source, module, is_package):
+        mods = [target] + [(*target, n) for n in names]
+        if any(m[: len(want)] == want for m in mods):
+            hits.append(line)
+    return sorted(set(hits))
 
 
 @pytest.mark.parametrize(
@@ -160,3 +184,56 @@ def test_no_private_imports_across_parts():
         rel = path.relative_to(PACKAGE.parent)
         bad += [f"{rel}:{line} {target} {names}" for line, target, names in found]
     assert not bad, "private imports from another part of bandopt: " + "; ".join(bad)
+
+
+LAYERS = [
+    # (lower, higher): `lower` never imports `higher`, not even late
+    ("bandopt.search", "bandopt.classify"),  # classify builds on search
+]
+
+
+def _files_of(module: str) -> list[Path]:
+    path = PACKAGE.parent.joinpath(*module.split("."))
+    return sorted(path.rglob("*.py")) if path.is_dir() else [path.with_suffix(".py")]
+
+
+@pytest.mark.parametrize(
+    ("source", "module", "expected"),
+    [
+        ("from ..classify import features\n", ("bandopt", "search", "_x"), [1]),
+        ("def f():\n    from .. import classify\n", ("bandopt", "search", "_x"), [2]),
+        ("import bandopt.classify._knn\n", ("bandopt", "search", "_x"), [1]),
+        ("from ..classification import x\n", ("bandopt", "search", "_x"), []),
+        ("from .. import knn\n", ("bandopt", "search", "_x"), []),
+    ],
+)
+def test_the_layer_check_can_fail(source, module, expected):
+    assert imports_of(source, module, False, "bandopt.classify") == expected
+
+
+@pytest.mark.parametrize(("lower", "higher"), LAYERS)
+def test_lower_layers_do_not_import_higher_ones(lower, higher):
+    """No import statement in `lower`'s files (at any depth) names `higher`,
+    and importing `lower` in a fresh interpreter does not load `higher`."""
+    files = _files_of(lower)
+    assert files and all(f.is_file() for f in files), lower
+    bad = []
+    for path in files:
+        found = imports_of(
+            path.read_text(), _module_name(path), path.name == "__init__.py", higher
+        )
+        bad += [f"{path.relative_to(PACKAGE.parent)}:{n}" for n in found]
+    assert not bad, f"{lower} imports {higher}: " + ", ".join(bad)
+
+    prefix = higher + "."
+    code = (
+        f"import sys, {lower}\n"
+        f"print(sorted(m for m in sys.modules if (m + '.').startswith({prefix!r})))"
+    )
+    path = [str(PACKAGE.parent), *filter(None, [os.environ.get("PYTHONPATH")])]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(path)}
+    p = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True
+    )
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.strip() == "[]", f"importing {lower} loads {p.stdout.strip()}"

@@ -45,7 +45,7 @@ def test_canonical_key_is_idempotent_and_alphanumeric(s):
 
 def test_validate_method_and_the_registries_that_use_it():
     from bandopt.classify import resolve_level
-    from bandopt.classify._features import resolve_kind
+    from bandopt.knn import resolve_kind
 
     assert validate_method("Log-Ratio", ("log_ratio", "sum_normalised")) == "log_ratio"
     for name in (1, "L1", "level-1", "LEVEL_1"):

@@ -13,6 +13,16 @@ from ..forward import (
     resolve_level as resolve_level,
     scenario_table as scenario_table,
 )
+from ..knn import (
+    FEATURE_KINDS as FEATURE_KINDS,
+    K_GRID as K_GRID,
+    choose_k as choose_k,
+    features as features,
+    macro_f1_int as macro_f1_int,
+    make_classifier as make_classifier,
+    neighbour_labels as neighbour_labels,
+    vote_proba as vote_proba,
+)
 from ._evaluate import (
     ESTIMATORS as ESTIMATORS,
     REJECT_GRID as REJECT_GRID,
@@ -23,11 +33,7 @@ from ._evaluate import (
     outer_splits as outer_splits,
     summary as summary,
 )
-from ._features import (
-    FEATURE_KINDS as FEATURE_KINDS,
-    deduplicate as deduplicate,
-    features as features,
-)
+from ._features import deduplicate as deduplicate
 from ._influence import (
     BAND_COUNT_TOLERANCE as BAND_COUNT_TOLERANCE,
     FACTORS as FACTORS,
@@ -46,20 +52,12 @@ from ._inversion import (
     inversion_conditions as inversion_conditions,
     table_lamps as table_lamps,
 )
-from ._knn import (
-    K_GRID as K_GRID,
-    REJECT_THRESHOLD as REJECT_THRESHOLD,
-    choose_k as choose_k,
-    make_classifier as make_classifier,
-    neighbour_labels as neighbour_labels,
-    vote_proba as vote_proba,
-)
 from ._metrics import (
+    REJECT_THRESHOLD as REJECT_THRESHOLD,
     UNKNOWN as UNKNOWN,
     confidence_curve as confidence_curve,
     confusion as confusion,
     f1_from_confusion as f1_from_confusion,
-    macro_f1_int as macro_f1_int,
     reject as reject,
     reject_curve as reject_curve,
     scores as scores,

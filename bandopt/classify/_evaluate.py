@@ -17,10 +17,10 @@ import numpy as np
 from ..datasets.lamps import LEVEL1, LEVEL2
 from ..folds import nested_lamp_splits
 from ..forward import ScenarioTable, resolve_level
+from ..knn import K_GRID, choose_k, features, make_classifier, resolve_kind
 from ..names import validate_method
-from ._features import deduplicate, features, resolve_kind
-from ._knn import K_GRID, REJECT_THRESHOLD, choose_k, make_classifier
-from ._metrics import reject, reject_curve, scores
+from ._features import deduplicate
+from ._metrics import REJECT_THRESHOLD, reject, reject_curve, scores
 
 
 LEVEL_KEYS = ("level1", "level2")

@@ -35,6 +35,7 @@ import numpy as np
 from .. import inversion as inv_mod
 from ..datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT
 from ..forward import ScenarioTable, resolve_level
+from ..knn import features
 from ..scene import Neighbourhood, build_scenarios
 from ._evaluate import (
     REJECT_GRID,
@@ -44,9 +45,7 @@ from ._evaluate import (
     outer_splits,
     usable_rows,
 )
-from ._features import features
-from ._knn import REJECT_THRESHOLD
-from ._metrics import confidence_curve, scores, withhold
+from ._metrics import REJECT_THRESHOLD, confidence_curve, scores, withhold
 
 
 SURFACE_MODE = "unknown"

@@ -17,6 +17,10 @@ import numpy as np
 UNKNOWN = "unknown"
 """Label of a rejected prediction."""
 
+REJECT_THRESHOLD = 0.6
+"""Default confidence below which a prediction is "unknown": the winning
+class holds less than 60 % of the (normalised) one-vs-all votes. [1]"""
+
 
 def reject(
     proba: np.ndarray, classes: Sequence[str] | np.ndarray, threshold: float
@@ -76,17 +80,6 @@ def f1_from_confusion(cm: np.ndarray) -> dict:
             2 * tp + fp + fn > 0, 2 * tp / np.maximum(2 * tp + fp + fn, 1), 0.0
         )
     return {"precision": prec, "recall": rec, "f1": f1, "support": cm.sum(axis=1)}
-
-
-def macro_f1_int(y_true: np.ndarray, y_pred: np.ndarray, labels: np.ndarray) -> float:
-    """Macro F1 over integer `labels` (fast path for searches)."""
-    f = []
-    for c in labels:
-        t, p = y_true == c, y_pred == c
-        tp = np.sum(t & p)
-        d = np.sum(t) + np.sum(p)
-        f.append(2.0 * tp / d if d else 0.0)
-    return float(np.mean(f)) if f else 0.0
 
 
 def scores(

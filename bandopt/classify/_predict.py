@@ -17,10 +17,9 @@ import numpy as np
 from ..datasets import atmosphere
 from ..folds import nested_lamp_splits
 from ..forward import ScenarioTable, scenario_table
+from ..knn import K_GRID, choose_k, features, make_classifier
 from ..scene import DEFAULT_ATMOSPHERES, build_scenarios
 from ._evaluate import class_order
-from ._features import features
-from ._knn import K_GRID, choose_k, make_classifier
 
 
 TRAINING_SCENARIOS = dict(

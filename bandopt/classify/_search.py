@@ -36,13 +36,11 @@ import numpy as np
 import optimistix as optx
 
 from ..forward import ScenarioTable, radiance_from_response
+from ..knn import K_GRID, features, macro_f1_int, neighbour_labels, vote_proba
 from ..names import validate_method
 from ..search import Space, global_search
 from ..sensor import BandSet, SensorParams, slit_super_gaussian
 from ._evaluate import class_order
-from ._features import features
-from ._knn import K_GRID, neighbour_labels, vote_proba
-from ._metrics import macro_f1_int
 
 
 @dataclasses.dataclass(frozen=True)

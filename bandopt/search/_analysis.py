@@ -25,6 +25,7 @@ import numpy as np
 
 from ..estimate import METRICS
 from ..folds import class_balanced_weights
+from ..knn import macro_f1_int
 from ..sensor import BandSet
 from ._stability import medoid, region_frequency
 
@@ -62,10 +63,6 @@ def truth_sd(table) -> np.ndarray:
 
 
 def macro_f1(y_true, y_pred) -> float:
-    # classify builds on search (Space, global_search): import it late, not
-    # at module level, so the two packages do not import each other
-    from ..classify import macro_f1_int
-
     y_true, y_pred = np.asarray(y_true), np.asarray(y_pred)
     return macro_f1_int(y_true, y_pred, np.unique(y_true))
 

@@ -5,7 +5,7 @@ One task = one band count `n_bands` and one objective weight `alpha` (see
 in one compiled function; each resample's design is then judged on its own
 outer test lamps with the pluggable *scorer* (`SCORERS`, `DEFAULT_SCORER`):
 estimation error per lamp, level-2 macro F1 of the KNN classifier
-(`bandopt.classify`, k chosen on the inner folds) and the design's SNR.
+(`bandopt.knn`, k chosen on the inner folds) and the design's SNR.
 Reference-sensor tasks score a fixed band set on the same resamples.
 """
 
@@ -19,6 +19,7 @@ import numpy as np
 from .. import inversion
 from ..datasets import atmosphere
 from ..estimate import CCT_RANGE_K, fit_estimator, lamp_abs_errors
+from ..knn import choose_k, features, neighbour_labels, vote_proba
 from ..sensor import SensorParams, noise_electrons, signal_electrons
 from ..sensor.reference import reference_sensor
 from ._problem import Space
@@ -87,11 +88,9 @@ def get_scorer(name: str) -> Callable:
 
 
 def f1_outer(ctx, rad, train, inner, test) -> tuple[np.ndarray, np.ndarray]:
-    """KNN (`bandopt.classify`) level-2 predictions on the test lamps' scenes:
-    returns (true labels, predicted labels) as integers."""
-    # classify builds on search: a late import keeps the packages acyclic
-    from ..classify import choose_k, features, neighbour_labels, vote_proba
-
+    """KNN (`bandopt.knn`, as `bandopt.classify` uses it) level-2 predictions
+    on the test lamps' scenes: returns (true labels, predicted labels) as
+    integers."""
     x = np.asarray(features(jnp.asarray(rad)))
     names = sorted(set(np.asarray(ctx.table.classes, object).tolist()))
     lab = np.asarray([names.index(c) for c in ctx.table.classes])[ctx.table.lamp_of]

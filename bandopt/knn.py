@@ -1,29 +1,87 @@
-"""One-vs-all k-nearest-neighbour classification (scikit-learn, `Pedregosa2011`),
-k chosen by inner cross-validation, and a reject option.
+"""One-vs-all k-nearest-neighbour primitives shared by the band search and
+the lamp-type classifier (`bandopt.search` scores designs with them,
+`bandopt.classify` builds on them and re-exports every name): scale-free
+features of band radiances, the scikit-learn model, neighbour queries and
+votes, k chosen by inner cross-validation, and the macro F1 it maximises.
 
-The reported models are `OneVsRestClassifier(KNeighborsClassifier(k))`
-(`make_classifier`), as in the thesis (one binary KNN per lamp type, the type
-with the highest normalised score wins). With uniform weights every binary
-KNN sees the same k neighbours, so its probability for class c is the
-fraction of neighbours of class c; the inner-fold choice of k and the band
-search use that identity (`neighbour_labels` + `vote_proba`): one neighbour
-query serves every k of the grid. A test checks that both give the same
-predictions.
+Features: a pixel's band radiances scale with the lamp's illuminance, the
+albedo and the pixel fill; only their *shape* tells the lamp type. Two
+scale-free feature kinds:
+
+- `"log_ratio"` (default): centred log band ratios (the centred log-ratio
+  transform, `Aitchison1982`), `x_j = log(L_j/L̄ + δ) - mean_k log(L_k/L̄ + δ)`
+  with `L̄` the mean band radiance of the pixel and
+  `δ = bandopt.estimate.LOG_FLOOR`. Chosen because Euclidean distance
+  between log ratios weighs a ratio change of 2x the same whether the bands
+  are bright or dim: a sodium lamp's weak blue band (1 % of its red) and a
+  warm LED's (20 %) are far apart, while in sum-normalised radiance both sit
+  near 0 and their difference is swamped by the bright bands. It is
+  `bandopt.estimate.log_ratio_features` (one copy).
+- `"sum_normalised"`: `L_j / Σ_k L_k` (compositional, bounded in [0, 1]; more
+  robust to a noisy band near zero, less sensitive to weak bands).
+
+Both are invariant to multiplying the radiance by any positive factor. Band
+radiance below zero (photon noise on a dark band) counts as 0.
+
+Classifier: one-vs-all KNN (scikit-learn, `Pedregosa2011`). The reported
+models are `OneVsRestClassifier(KNeighborsClassifier(k))` (`make_classifier`),
+as in the thesis (one binary KNN per lamp type, the type with the highest
+normalised score wins). With uniform weights every binary KNN sees the same k
+neighbours, so its probability for class c is the fraction of neighbours of
+class c; the inner-fold choice of k and the band searches use that identity
+(`neighbour_labels` + `vote_proba`): one neighbour query serves every k of the
+grid. A test checks that both give the same predictions.
 """
 
 from collections.abc import Sequence
 
+import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float
 
-from ._metrics import macro_f1_int
+from .estimate import log_ratio_features
+from .names import validate_method
+
+
+FEATURE_KINDS = ("log_ratio", "sum_normalised")
+
+
+def resolve_kind(kind: str) -> str:
+    """Canonical feature kind (case and separators ignored)."""
+    return validate_method(kind, FEATURE_KINDS, "feature kind")
+
+
+def features(
+    radiance: Float[ArrayLike, "*batch b"], kind: str = "log_ratio"
+) -> Float[Array, "*batch b"]:
+    """Scale-free features of band radiances (see module docstring). [1]
+
+    Works in JAX (differentiable; double-where at a dark pixel, whose
+    features are all 0 / uniform).
+    """
+    kind = resolve_kind(kind)
+    r = jnp.maximum(jnp.asarray(radiance), 0.0)
+    if kind == "sum_normalised":
+        total = jnp.sum(r, axis=-1, keepdims=True)
+        ok = total > 0
+        return jnp.where(ok, r / jnp.where(ok, total, 1.0), 1.0 / r.shape[-1])
+    return log_ratio_features(r)
+
+
+def macro_f1_int(y_true: np.ndarray, y_pred: np.ndarray, labels: np.ndarray) -> float:
+    """Macro F1 over integer `labels` (fast path for searches): per class c,
+    `2 TP / (2 TP + FP + FN)`, 0 when c is neither true nor predicted."""
+    f = []
+    for c in labels:
+        t, p = y_true == c, y_pred == c
+        tp = np.sum(t & p)
+        d = np.sum(t) + np.sum(p)
+        f.append(2.0 * tp / d if d else 0.0)
+    return float(np.mean(f)) if f else 0.0
 
 
 K_GRID: tuple[int, ...] = (1, 3, 5, 9, 15, 25)
 """Candidate k, chosen by macro F1 on the inner folds (ties: smaller k)."""
-
-REJECT_THRESHOLD = 0.6
-"""Default confidence below which a prediction is "unknown": the winning
-class holds less than 60 % of the (normalised) one-vs-all votes. [1]"""
 
 
 def make_classifier(k: int):
