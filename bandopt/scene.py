@@ -90,6 +90,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ._photometric import read_lop
 from .datasets import atmosphere as atm_mod, moon as moon_mod, surfaces as surf_mod
 from .datasets.lamps import library
 from .names import CanonicalMapping, canonical_key
@@ -281,9 +282,6 @@ def uplight_profiles() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     on the files' 1° grid) (p, z) [cd lm⁻¹ = sr⁻¹]; downward fraction `d` of
     the flux (zenith 90-180°, the 90° sample shared half and half) (p,) [1].
     """
-    # cycle: bandopt.spatial imports this module (through classify, forward)
-    from .spatial import read_lop
-
     zen, inten, down = [], [], []
     for pc in UPLIGHT_PROFILE_PERCENT:
         table = read_lop(_LOP_DIR / f"{pc}_pcUPLIGHT.lop")

@@ -73,7 +73,7 @@ def _scored_ids(n):
 
 def test_dedup_removes_class_scaled_copies():
     from bandopt.classify import scenario_table
-    from bandopt.classify._evaluate import usable_rows
+    from bandopt.classify._scores import usable_rows
     from bandopt.scene import build_scenarios
 
     scen = build_scenarios(

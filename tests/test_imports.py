@@ -189,6 +189,11 @@ def test_no_private_imports_across_parts():
 LAYERS = [
     # (lower, higher): `lower` never imports `higher`, not even late
     ("bandopt.search", "bandopt.classify"),  # classify builds on search
+    # the KNN evaluation dispatches to the inversion; both share _scores
+    ("bandopt.classify._inversion", "bandopt.classify._evaluate"),
+    ("bandopt.classify._scores", "bandopt.classify._evaluate"),
+    ("bandopt.classify._scores", "bandopt.classify._inversion"),
+    ("bandopt.scene", "bandopt.spatial"),  # spatial renders scenes
 ]
 
 
@@ -225,6 +230,9 @@ def test_lower_layers_do_not_import_higher_ones(lower, higher):
         bad += [f"{path.relative_to(PACKAGE.parent)}:{n}" for n in found]
     assert not bad, f"{lower} imports {higher}: " + ", ".join(bad)
 
+    if lower.split(".")[:2] == higher.split(".")[:2]:
+        return  # one package: importing `lower` runs the package __init__,
+        # which imports every part; the static check above is the test
     prefix = higher + "."
     code = (
         f"import sys, {lower}\n"

@@ -25,12 +25,7 @@ from ..knn import (
 )
 from ._evaluate import (
     ESTIMATORS as ESTIMATORS,
-    REJECT_GRID as REJECT_GRID,
-    BandSetScores as BandSetScores,
-    LevelScores as LevelScores,
-    class_order as class_order,
     evaluate_band_set as evaluate_band_set,
-    outer_splits as outer_splits,
     summary as summary,
 )
 from ._features import deduplicate as deduplicate
@@ -68,6 +63,13 @@ from ._predict import (
     available_atmospheres as available_atmospheres,
     predict_lamp_types as predict_lamp_types,
     training_table as training_table,
+)
+from ._scores import (
+    REJECT_GRID as REJECT_GRID,
+    BandSetScores as BandSetScores,
+    LevelScores as LevelScores,
+    class_order as class_order,
+    outer_splits as outer_splits,
 )
 from ._search import (
     SOFT_TEMPERATURE as SOFT_TEMPERATURE,

@@ -23,8 +23,9 @@ import numpy as np
 from ..datasets.lamps import library
 from ..estimate import METRICS, LampTable, fit_estimator, lamp_abs_errors, lamp_truth
 from ..forward import CONDITIONS, ScenarioTable
-from ._evaluate import class_order, evaluate_band_set, outer_splits
+from ._evaluate import evaluate_band_set
 from ._metrics import scores
+from ._scores import class_order, outer_splits
 
 
 BAND_COUNT_TOLERANCE = 0.02

@@ -37,7 +37,8 @@ from ..datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT
 from ..forward import ScenarioTable, resolve_level
 from ..knn import features
 from ..scene import Neighbourhood, build_scenarios
-from ._evaluate import (
+from ._metrics import REJECT_THRESHOLD, confidence_curve, scores, withhold
+from ._scores import (
     REJECT_GRID,
     BandSetScores,
     LevelScores,
@@ -45,7 +46,6 @@ from ._evaluate import (
     outer_splits,
     usable_rows,
 )
-from ._metrics import REJECT_THRESHOLD, confidence_curve, scores, withhold
 
 
 SURFACE_MODE = "unknown"

@@ -19,7 +19,7 @@ from ..folds import nested_lamp_splits
 from ..forward import ScenarioTable, scenario_table
 from ..knn import K_GRID, choose_k, features, make_classifier
 from ..scene import DEFAULT_ATMOSPHERES, build_scenarios
-from ._evaluate import class_order
+from ._scores import class_order
 
 
 TRAINING_SCENARIOS = dict(

@@ -40,7 +40,7 @@ from ..knn import K_GRID, features, macro_f1_int, neighbour_labels, vote_proba
 from ..names import validate_method
 from ..search import Space, global_search
 from ..sensor import BandSet, SensorParams, slit_super_gaussian
-from ._evaluate import class_order
+from ._scores import class_order
 
 
 @dataclasses.dataclass(frozen=True)

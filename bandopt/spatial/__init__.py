@@ -9,6 +9,13 @@ Gaussians (`detect`). `bandopt.spatial.montecarlo` checks the renderer
 against Mitsuba 3.
 """
 
+from .._photometric import (
+    IntensityTable as IntensityTable,
+    read_ies as read_ies,
+    read_ldt as read_ldt,
+    read_lop as read_lop,
+    read_photometry as read_photometry,
+)
 from ._detect import (
     DOG_RATIO as DOG_RATIO,
     DOG_SIGMA_M as DOG_SIGMA_M,
@@ -66,13 +73,6 @@ from ._overlap import (
     OverlapScore as OverlapScore,
     lamp_type_f1_when_overlapping as lamp_type_f1_when_overlapping,
     per_type_radiance as per_type_radiance,
-)
-from ._photometric import (
-    IntensityTable as IntensityTable,
-    read_ies as read_ies,
-    read_ldt as read_ldt,
-    read_lop as read_lop,
-    read_photometry as read_photometry,
 )
 from ._render import (
     DEFAULT_CULL_FRACTION as DEFAULT_CULL_FRACTION,

@@ -30,8 +30,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from .._photometric import IntensityTable, read_lop, read_photometry
 from ..names import canonical_key
-from ._photometric import IntensityTable, read_lop, read_photometry
 
 
 GAMMA_STEP_DEG = 0.5
