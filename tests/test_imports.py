@@ -189,6 +189,11 @@ def test_no_private_imports_across_parts():
 LAYERS = [
     # (lower, higher): `lower` never imports `higher`, not even late
     ("bandopt.search", "bandopt.classify"),  # classify builds on search
+    # lamps extends its spectra with nir, nir calibrates on the measured spectra
+    # of _lamp_sources: _lamp_sources <- nir <- lamps
+    ("bandopt.datasets.nir", "bandopt.datasets.lamps"),
+    ("bandopt.datasets._lamp_sources", "bandopt.datasets.nir"),
+    ("bandopt.datasets._lamp_sources", "bandopt.datasets.lamps"),
 ]
 
 
@@ -209,6 +214,22 @@ def _files_of(module: str) -> list[Path]:
 )
 def test_the_layer_check_can_fail(source, module, expected):
     assert imports_of(source, module, False, "bandopt.classify") == expected
+
+
+@pytest.mark.parametrize(
+    ("source", "expected"),
+    [
+        ("from . import nir\n", [1]),
+        ("from .nir import technology_of\n", [1]),
+        ("def f():\n    from .nir import extend_spectrum\n", [2]),
+        ("import bandopt.datasets.nir\n", [1]),
+        ("from . import lamps, loaders\n", []),
+        ("from .nirx import y\n", []),
+    ],
+)
+def test_the_layer_check_sees_sibling_modules(source, expected):
+    module = ("bandopt", "datasets", "_lamp_sources")
+    assert imports_of(source, module, False, "bandopt.datasets.nir") == expected
 
 
 @pytest.mark.parametrize(("lower", "higher"), LAYERS)
