@@ -179,9 +179,9 @@ def nir_summary(lib, rows, measured) -> dict:
 
 
 def line_checks() -> dict:
-    from bandopt.datasets import lamps
+    from bandopt.datasets import _lamp_sources
 
-    spectra = lamps._long_csv(lamps._COLOR_POLLUTION / "spectra.csv")
+    spectra = _lamp_sources._long_csv(_lamp_sources._COLOR_POLLUTION / "spectra.csv")
     nist = {
         "Hg I 404.66": 404.66,
         "Hg I 435.83": 435.83,

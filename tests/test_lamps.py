@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from colour.colorimetry.datasets.light_sources import sds as light_sources
 
-from bandopt.datasets import lamps
+from bandopt.datasets import _lamp_sources, lamps
 from bandopt.datasets.lamps import LEVEL1, LEVEL2, library
 
 
@@ -89,7 +89,7 @@ def test_led_warm_cool_split_by_cct(lib):
     assert by_id["cie_led_b5"].level2 == "led_cool"
     for r in lib.records:
         if r.level2 in ("led_warm", "led_cool") and not r.modelled:
-            cct, _ = lamps._cct_duv(
+            cct, _ = _lamp_sources._cct_duv(
                 lib.wavelength_nm[:401], lib.values[lib.index(r.id), :401]
             )
             assert (cct <= lamps.LED_WARM_MAX_CCT_K) == (r.level2 == "led_warm")
@@ -238,7 +238,7 @@ def test_library_builds_without_lspdd(monkeypatch):
 
 
 def test_lspdd_vendored_verbatim(shared_dir):
-    vendored = sorted((lamps._LSPDD).glob("*.json"))
+    vendored = sorted((_lamp_sources._LSPDD).glob("*.json"))
     assert len(vendored) >= 150
     for p in vendored:
         src = shared_dir / "data" / "lamps_lspdd" / p.name
@@ -270,7 +270,7 @@ def test_scored_classes_have_three_distinct_measured_lamps(lib):
 
 def test_dedup_runs_against_cie_and_nist():
     fl2 = colour.SDS_ILLUMINANTS["FL2"]
-    cie = lamps._Raw(
+    cie = _lamp_sources._Raw(
         "cie_fl2",
         "CIE FL2",
         "CIE2018",
@@ -280,7 +280,7 @@ def test_dedup_runs_against_cie_and_nist():
         fl2.values,
     )
     rng = np.random.default_rng(0)
-    copy = lamps._Raw(
+    copy = _lamp_sources._Raw(
         "lspdd_copy",
         "copy",
         "LSPDD2016",
@@ -289,7 +289,7 @@ def test_dedup_runs_against_cie_and_nist():
         fl2.wavelengths,
         3.0 * fl2.values * (1 + 0.01 * rng.standard_normal(81)),
     )
-    other = lamps._Raw(
+    other = _lamp_sources._Raw(
         "lspdd_other",
         "other",
         "LSPDD2016",
@@ -298,7 +298,7 @@ def test_dedup_runs_against_cie_and_nist():
         fl2.wavelengths,
         fl2.values[::-1],
     )
-    kept, dup_of, removed = lamps._dedup([copy, other, cie])
+    kept, dup_of, removed = _lamp_sources._dedup([copy, other, cie])
     assert removed == [("lspdd_copy", "cie_fl2")]
     assert sorted(kept) == [1, 2] and dup_of == {2: ["lspdd_copy"]}
 
@@ -319,7 +319,7 @@ def test_color_pollution_lines_at_nist_wavelengths(lib):
         "color_pollution_lps": (589.3, 568.82, 819.48),  # D lines unresolved
         "color_pollution_hps": (568.82, 818.9),  # doublet broadened, unresolved
     }
-    meta = lamps._long_csv(lamps._COLOR_POLLUTION / "spectra.csv")
+    meta = _lamp_sources._long_csv(_lamp_sources._COLOR_POLLUTION / "spectra.csv")
     for lamp_id, lines in cases.items():
         w, s = meta[
             lamp_id.removeprefix("color_pollution_").upper()

@@ -49,9 +49,15 @@ from scipy.optimize import nnls
 
 from ..spectra import planck_radiance
 
+# The calibration spectra; the extension range and `technology_of` are defined
+# with them (they select and label them) and re-exported here.
+from ._lamp_sources import (
+    EXTENSION_END_NM,
+    EXTENSION_START_NM,
+    measured_nir_spectra,
+    technology_of as technology_of,
+)
 
-EXTENSION_START_NM = 780.0
-EXTENSION_END_NM = 900.0
 
 # NIST ASD air wavelengths [nm] of the lines between 780 and 900 nm per technology.
 NA_I = (818.33, 819.48)
@@ -81,19 +87,6 @@ LED_MIN_DECAY_PER_NM = 1.0 / 200.0
 """The LED tail decays at least this fast (a tail never rises; a 200 nm
 e-folding is slower than any clean measured LED tail here, 25-45 nm). [nm⁻¹]"""
 
-_TECHNOLOGY = {
-    "hps": "hps",
-    "lps": "lps",
-    "metal_halide": "metal_halide",
-    "mercury": "mercury",
-    "fluorescent_linear": "fluorescent",
-    "fluorescent_compact": "fluorescent",
-    "incandescent_halogen": "incandescent",
-    "led_warm": "led",
-    "led_cool": "led",
-    "led_amber": "led",
-    "led_rgb": "led",
-}
 TECHNOLOGIES = (
     "hps",
     "lps",
@@ -121,19 +114,6 @@ measured lamps (`validate_extension`); the counts are in
 def is_validated(technology: str | None) -> bool:
     """The extension of `technology` is validated against measured spectra."""
     return bool(VALIDATED.get(technology or "", False))
-
-
-def technology_of(level2: str | None, level1: str | None = None) -> str | None:
-    """The extension technology for a level-2 class (None: no extension). Every
-    LED class, amber included, is `led`: an amber LED is never given sodium lines."""
-    if level2 in _TECHNOLOGY:
-        return _TECHNOLOGY[level2]
-    return {
-        "fluorescent": "fluorescent",
-        "led": "led",
-        "incandescent": "incandescent",
-        "lps": "lps",
-    }.get(level1 or "")
 
 
 SINGLE_BAND_MIN_FWHM_NM = 10.0
@@ -256,9 +236,6 @@ def calibration_spectra(technology: str, lspdd: bool = True) -> list[tuple]:
     """(id, wavelength [nm], values) of the library's lamps of `technology`
     measured to 900 nm (White SON, excluded lamps and spectra failing
     `lamps.nir_quality` left out)."""
-    # cycle: .lamps imports this module
-    from .lamps import measured_nir_spectra
-
     return [
         (m["id"], m["wavelength_nm"], m["values"])
         for m in measured_nir_spectra(lspdd)
@@ -421,9 +398,6 @@ def validate_extension(lspdd: bool = True) -> list[dict]:
     has a single measured lamp: then the check is in-sample), and per band the
     measured and extended band-integrated power and their relative error.
     """
-    # cycle: .lamps imports this module
-    from .lamps import measured_nir_spectra
-
     grid = np.arange(380.0, 900.01, 1.0)
     vis = grid <= EXTENSION_START_NM
     rows = []
