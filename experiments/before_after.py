@@ -24,6 +24,7 @@ Writes `results/before_after.json` (strict JSON), its provenance manifest
 
 import argparse
 import csv
+import datetime
 import io
 import json
 import math
@@ -544,11 +545,18 @@ def _find_keys(obj, keys, found):
 PHYSICS_KEYS = ("neighbourhood", "uplight_model", "physics_version", "uplight_ratio")
 
 
-def _physics(recorded: dict, commit: str | None, repo: Path | None) -> dict:
+def _physics(
+    recorded: dict, commit: str | None, repo: Path | None, created: str | None = None
+) -> dict:
     """Scene physics recorded in a side's manifest and result files (every
     value of `PHYSICS_KEYS` found at any depth). When neither a neighbourhood
     nor an uplight model is recorded: what `bandopt/scene.py` at the manifest's
-    commit defaults to, or `NOT_RECORDED_PRE11` when it has no such option."""
+    commit defaults to, or `NOT_RECORDED_PRE11` when it has no such option.
+    When the manifest's commit is not in the repository (a rebased or lost
+    branch), the manifest's creation time `created` (ISO 8601) is compared
+    with the commit that first gave scene.py its neighbourhood option: a
+    result made before that commit existed is pre-issue-11, and the text says
+    how that was decided; otherwise the physics is not known."""
     out = {}
     for k in PHYSICS_KEYS:
         vals = []
@@ -576,6 +584,13 @@ def _physics(recorded: dict, commit: str | None, repo: Path | None) -> dict:
             scene = None
     if scene is None:
         text = "not recorded (manifest commit not in this repository)"
+        first = _first_physics_commit(repo)
+        if created and first and _utc(created) < _utc(first[1]):
+            text = (
+                f"{NOT_RECORDED_PRE11}, by date: manifest commit {str(commit)[:7]} "
+                f"not in this repository, made {created}, before {first[0][:7]} "
+                f"({first[1]}) added the neighbourhood option"
+            )
     else:
         hood = re.search(r'^DEFAULT_NEIGHBOURHOOD\s*=\s*"([^"]+)"', scene, re.M)
         up = re.search(r'uplight_model:\s*str\s*=\s*"([^"]+)"', scene)
@@ -593,6 +608,27 @@ def _physics(recorded: dict, commit: str | None, repo: Path | None) -> dict:
     )
     out["summary"] = text + version + ratio
     return out
+
+
+def _utc(stamp: str) -> datetime.datetime:
+    t = datetime.datetime.fromisoformat(stamp.replace("Z", "+00:00"))
+    return t if t.tzinfo else t.replace(tzinfo=datetime.UTC)
+
+
+def _first_physics_commit(repo: Path | None) -> tuple[str, str] | None:
+    """(hash, committer date) of the first commit whose bandopt/scene.py has
+    `DEFAULT_NEIGHBOURHOOD` (issue 11's scene physics); None if none has."""
+    if repo is None:
+        return None
+    try:
+        out = _git(
+            repo, "log", "-S", "DEFAULT_NEIGHBOURHOOD", "--reverse",
+            "--format=%H %cI", "--", "bandopt/scene.py",
+        )
+    except RuntimeError:
+        return None
+    lines = out.split()
+    return (lines[0], lines[1]) if len(lines) >= 2 else None
 
 
 def _lamp_library(man: dict) -> dict:
@@ -625,7 +661,7 @@ def side_info(f: Files, repo: Path | None) -> dict | None:
         if name.endswith(".json") and f.raw(name) is not None:
             _find_keys(f.load(name), PHYSICS_KEYS, recorded)
     commit = man.get("git_commit")
-    physics = _physics(recorded, commit, repo)
+    physics = _physics(recorded, commit, repo, man.get("created_utc"))
     if f.experiment == "spatial" and f.raw("summary.json") is not None:
         # the renderer states its transmittance and adjacency model in prose
         summary = f.load("summary.json")

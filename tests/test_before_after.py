@@ -265,3 +265,20 @@ def test_cli_prints_the_section_without_writing(capsys):
 def test_unknown_revision_is_a_clear_error():
     with pytest.raises(ValueError, match="'no-such-rev': not a git revision"):
         ba.GitSource("no-such-rev", RESULTS)
+
+
+def test_a_lost_manifest_commit_is_dated_against_the_physics_commit(head):
+    """A manifest whose commit is not in the repository: made before the
+    commit that added the neighbourhood option is pre-issue-11; made after it,
+    the physics is unknown (never guessed)."""
+    first = ba._first_physics_commit(head.repo)
+    if first is None:
+        pytest.skip("this clone has no commit with scene physics options")
+    lost = "0" * 40
+    early = ba._physics({}, lost, head.repo, "2000-01-01T00:00:00+00:00")
+    assert early["summary"].startswith(ba.NOT_RECORDED_PRE11 + ", by date")
+    assert first[0][:7] in early["summary"]
+    late = ba._physics({}, lost, head.repo, "2999-01-01T00:00:00+00:00")
+    assert late["summary"] == "not recorded (manifest commit not in this repository)"
+    undated = ba._physics({}, lost, head.repo, None)
+    assert undated["summary"] == late["summary"]
