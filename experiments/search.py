@@ -651,125 +651,6 @@ def _sweep(tasks, args, label):
     return res
 
 
-def _tolerance(ctx, bands, res, scorer, seed, sd):
-    """Errors of the recommended set when the built filters deviate, with the
-    estimator fitted to the nominal bands (an uncalibrated deviation)."""
-    from bandopt.estimate import lamp_abs_errors
-    from bandopt.search import SCORER_NOTES, get_scorer, perturbed_bands
-
-    rad0 = ctx.radiance(bands, seed=seed)
-    fits = [get_scorer(scorer)(ctx, bands, rad0, r.train, list(r.inner)) for r in res]
-    classes = ctx.table.classes
-    from bandopt.folds import class_balanced_weights
-
-    def mae(pb):
-        rad = ctx.radiance(pb, seed=seed)
-        parts = {}
-        for r, fit in zip(res, fits, strict=True):
-            e = lamp_abs_errors(fit(rad, pb), ctx.table, r.test)
-            parts.setdefault(r.partition, []).append((r.test, e))
-        rows = []
-        for items in parts.values():
-            idx = np.concatenate([i for i, _ in items])
-            err = np.concatenate([e for _, e in items])
-            row = []
-            for m in range(3):
-                ok = np.isfinite(err[:, m])
-                w = class_balanced_weights(classes[idx[ok]])
-                row.append(float(np.sum(w * err[ok, m])))
-            rows.append(row)
-        return np.mean(rows, axis=0)
-
-    nominal = mae(bands)
-    b = len(bands.names)
-    rows = []
-
-    def add(band, param, value, m):
-        ratio = m / nominal
-        rows.append(
-            {
-                "band": band,
-                "parameter": param,
-                "value": float(value),
-                "mae_LER": float(m[0]),
-                "mae_G": float(m[1]),
-                "mae_CCT": float(m[2]),
-                "ratio_LER": float(ratio[0]),
-                "ratio_G": float(ratio[1]),
-                "ratio_CCT": float(ratio[2]),
-                "within_10pct": bool(np.all(ratio <= 1.10)),
-            }
-        )
-
-    shifts = np.arange(-10.0, 10.01, 1.0)
-    scales = np.round(np.arange(0.80, 1.2001, 0.02), 4)
-    for i, name in enumerate(bands.names):
-        for d in shifts:
-            dc = np.zeros(b)
-            dc[i] = d
-            add(name, "centre_shift_nm", d, mae(perturbed_bands(bands, dc=dc)))
-        for s in scales:
-            sc = np.ones(b)
-            sc[i] = s
-            add(name, "fwhm_factor", s, mae(perturbed_bands(bands, scale=sc)))
-    for leak in (0.0, 0.0025, 0.005, 0.01, 0.02, 0.05):
-        add("all", "leakage", leak, mae(perturbed_bands(bands, leakage=leak)))
-    for a in np.arange(0.0, 20.01, 2.0):
-        add("all", "aoi_deg", a, mae(perturbed_bands(bands, aoi_deg=a)))
-
-    def interval(band, param, centre_value):
-        rr = [r for r in rows if r["band"] == band and r["parameter"] == param]
-        vals = np.array([r["value"] for r in rr])
-        ok = np.array([r["within_10pct"] for r in rr])
-        o = np.argsort(vals)
-        vals, ok = vals[o], ok[o]
-        j = int(np.argmin(np.abs(vals - centre_value)))
-        if not ok[j]:
-            return None
-        lo = j
-        while lo > 0 and ok[lo - 1]:
-            lo -= 1
-        hi = j
-        while hi < len(vals) - 1 and ok[hi + 1]:
-            hi += 1
-        return [float(vals[lo]), float(vals[hi])]
-
-    per_band = {}
-    for name in bands.names:
-        ci = interval(name, "centre_shift_nm", 0.0)
-        fi = interval(name, "fwhm_factor", 1.0)
-        per_band[name] = {
-            "centre_shift_interval_nm": ci,
-            "fwhm_factor_interval": fi,
-            "meets_centre_pm5nm": bool(ci is not None and ci[0] <= -5 and ci[1] >= 5),
-            "meets_fwhm_pm10pct": bool(
-                fi is not None and fi[0] <= 0.9 and fi[1] >= 1.1
-            ),
-        }
-    leak = interval("all", "leakage", 0.0)
-    aoi = interval("all", "aoi_deg", 0.0)
-    from bandopt.search import AOI_N_EFF, LEAKAGE_NOTE
-
-    return rows, {
-        "rule": "specification interval: the contiguous range of each deviation "
-        "(one band at a time for centre and FWHM; all bands for leakage and "
-        "angle of incidence) around nominal within which the partition-mean "
-        "MAE of LER, G and CCT all stay <= 1.10 x nominal; estimator fitted to "
-        f"the nominal bands (deviation not calibrated out; estimator: {scorer}, "
-        f"{SCORER_NOTES[scorer]}), same noise draws; "
-        "an interval ending on the scan limit (+/-10 nm, x0.8-1.2, 20 deg, "
-        "5 %) means at least that",
-        "nominal_mae": dict(zip(("LER", "G", "CCT"), map(float, nominal), strict=True)),
-        "per_band": per_band,
-        "leakage_interval": leak,
-        "meets_leakage_1pct": bool(leak is not None and leak[1] >= 0.01),
-        "aoi_interval_deg": aoi,
-        "aoi_model": f"centre * sqrt(1 - sin^2(theta) / n_eff^2), n_eff = {AOI_N_EFF}",
-        "leakage_model": LEAKAGE_NOTE,
-        "grid": {"centre_shift_nm": shifts.tolist(), "fwhm_factor": scales.tolist()},
-    }
-
-
 def plot_stability(designs, stab, path, title):
     import matplotlib
 
@@ -877,6 +758,7 @@ def study(args) -> dict:
         partition_summary as summary,
         study_resamples,
         study_space,
+        tolerance_analysis,
         truth_sd,
     )
 
@@ -1086,11 +968,14 @@ def study(args) -> dict:
     )
     # tolerance
     print("tolerance analysis of the recommended set", file=sys.stderr, flush=True)
-    rows, tol = _tolerance(ctx, bands, res, args.tolerance_scorer, args.seed, sd)
+    analysis = tolerance_analysis(
+        ctx, bands, res, scorer=args.tolerance_scorer, seed=args.seed
+    )
+    tol = analysis.summary
     with (out / "tolerance.csv").open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w = csv.DictWriter(fh, fieldnames=list(analysis.rows[0]))
         w.writeheader()
-        w.writerows(rows)
+        w.writerows(analysis.rows)
     (out / "tolerance.json").write_text(json.dumps(tol, indent=1) + "\n")
     # recommendation
     band_rows = []

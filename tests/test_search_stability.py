@@ -12,13 +12,7 @@ import pytest
 
 from bandopt.estimate import LampTable
 from bandopt.search import Space, make_problem
-from bandopt.search._analysis import (
-    AOI_N_EFF,
-    band_count_choice,
-    knee,
-    pareto_mask,
-    perturbed_bands,
-)
+from bandopt.search._analysis import band_count_choice, knee, pareto_mask
 from bandopt.search._stability import (
     batched_loss,
     batched_search,
@@ -28,6 +22,7 @@ from bandopt.search._stability import (
     medoid,
     overlap_matrix,
 )
+from bandopt.search._tolerance import AOI_N_EFF, perturbed_bands
 from bandopt.sensor import BandSet, slit_super_gaussian
 
 

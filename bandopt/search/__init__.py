@@ -12,14 +12,14 @@
   with the joint estimation/classification loss and the band-overlap penalty;
 - `make_study_task`, `run_study_task`, `SCORERS` (`_study`): stability-study
   tasks and the pluggable outer-fold estimator; `_analysis`: the stated rules
-  (band count, Pareto knee, medoid design, tolerance intervals).
+  (band count, Pareto knee, medoid design);
+- `tolerance_analysis`, `perturbed_bands`, `specification_interval`
+  (`_tolerance`): specification intervals of a band set.
 """
 
 from ._analysis import (
-    AOI_N_EFF as AOI_N_EFF,
     COUNT_RULE as COUNT_RULE,
     DESIGN_RULE as DESIGN_RULE,
-    LEAKAGE_NOTE as LEAKAGE_NOTE,
     NORMALISATION_NOTE as NORMALISATION_NOTE,
     PARETO_RULE as PARETO_RULE,
     band_count_choice as band_count_choice,
@@ -28,7 +28,6 @@ from ._analysis import (
     lamp_mean_errors as lamp_mean_errors,
     pareto_mask as pareto_mask,
     partition_summary as partition_summary,
-    perturbed_bands as perturbed_bands,
     truth_sd as truth_sd,
 )
 from ._compare import (
@@ -92,4 +91,13 @@ from ._task import (
     make_task as make_task,
     run_task as run_task,
     task_id as task_id,
+)
+from ._tolerance import (
+    AOI_N_EFF as AOI_N_EFF,
+    LEAKAGE_NOTE as LEAKAGE_NOTE,
+    MAX_ERROR_RATIO as MAX_ERROR_RATIO,
+    ToleranceAnalysis as ToleranceAnalysis,
+    perturbed_bands as perturbed_bands,
+    specification_interval as specification_interval,
+    tolerance_analysis as tolerance_analysis,
 )

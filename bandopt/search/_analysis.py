@@ -1,6 +1,6 @@
 """Summaries of stability-study results: per-partition errors, the band-count
 rule, the Pareto front and its recommended point, per-band intervals, paired
-comparisons and the tolerance analysis of a band set.
+comparisons (the tolerance analysis of a band set is `_tolerance`).
 
 Stated rules (also written into every output):
 
@@ -20,13 +20,11 @@ Stated rules (also written into every output):
 
 import itertools
 
-import jax.numpy as jnp
 import numpy as np
 
 from ..estimate import METRICS
 from ..folds import class_balanced_weights
 from ..knn import macro_f1_int
-from ..sensor import BandSet
 from ._stability import medoid, region_frequency
 
 
@@ -198,55 +196,3 @@ def lamp_mean_errors(scores) -> tuple[list[int], list[list[float]]]:
             acc.setdefault(int(i), []).append(np.asarray(e, float))
     idx = sorted(acc)
     return idx, [np.nanmean(np.stack(acc[i]), 0).tolist() for i in idx]
-
-
-# ------------------------------------------------------------------------------
-# tolerance
-
-
-AOI_N_EFF = 2.0
-"""Effective index of a dielectric interference filter for the angle-of-
-incidence shift `λ(θ) = λ₀ sqrt(1 - sin²θ / n_eff²)` (a typical value for
-hard-coated band-pass filters; the maker's value replaces it). [1]"""
-
-LEAKAGE_NOTE = (
-    "out-of-band leakage L: response r -> r + L (1 - r) over the data range "
-    "(a flat blocking floor of L relative to the peak)"
-)
-
-
-def perturbed_bands(bands, *, dc=None, scale=None, leakage=0.0, aoi_deg=0.0):
-    """A perturbed copy of a `BandSet`-like set (response callable):
-    centre shifts `dc` (b,) [nm], FWHM factors `scale` (b,), blue shift of an
-    angle of incidence, leakage floor. Returns an object with `response(wl)`."""
-    c = np.asarray(bands.centre_nm, float).copy()
-    f = np.asarray(bands.fwhm_nm, float).copy()
-    if dc is not None:
-        c = c + np.asarray(dc, float)
-    if scale is not None:
-        f = f * np.asarray(scale, float)
-    if aoi_deg:
-        s = np.sin(np.radians(aoi_deg))
-        c = c * np.sqrt(1.0 - (s / AOI_N_EFF) ** 2)
-    k = np.asarray(bands.shape_k, float)
-    pert = BandSet.from_physical(
-        c,
-        f,
-        k,
-        names=list(bands.names),
-        lower_nm=0.0,
-        upper_nm=5000.0,
-        min_fwhm_nm=1.0,
-    )
-
-    class _Leaky:
-        names = pert.names
-        name = "perturbed"
-        centre_nm = pert.centre_nm
-        fwhm_nm = pert.fwhm_nm
-
-        def response(self, wl):
-            r = pert.response(jnp.asarray(wl))
-            return r + leakage * (1.0 - r)
-
-    return _Leaky()
