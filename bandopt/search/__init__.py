@@ -14,7 +14,8 @@
   tasks and the pluggable outer-fold estimator; `_analysis`: the stated rules
   (band count, Pareto knee, medoid design);
 - `tolerance_analysis`, `perturbed_bands`, `specification_interval`
-  (`_tolerance`): specification intervals of a band set.
+  (`_tolerance`): specification intervals of a band set, with the estimator
+  fitted to the nominal bands and refitted on the perturbed (as-built) ones.
 """
 
 from ._analysis import (

@@ -5,9 +5,15 @@ FWHM, the out-of-band leakage and the angle of incidence (AOI) may deviate
 from the design before the estimation errors grow by more than 10 %
 (issue 13). Each deviation is scanned on a fixed grid (`CENTRE_SHIFTS_NM`,
 `FWHM_FACTORS` one band at a time; `LEAKAGES`, `AOI_DEG` all bands at once)
-and scored on the outer test lamps of every resample by the estimator
-fitted on each outer training set to the NOMINAL band responses (a deviation
-nobody measured), same noise draws.
+and scored on the outer test lamps of every resample, in two ways:
+
+- *uncalibrated*: the estimator fitted on each outer training set to the
+  NOMINAL band responses reads radiances of the perturbed bands (a deviation
+  nobody measured);
+- *calibrated*: the estimator refitted on each outer training set to the
+  PERTURBED responses (a mission that measures its as-built filters before
+  launch and trains its estimator on them), same lamps, inner folds and
+  noise draws.
 
 Score of a scan point: per lamp partition, the class-balanced MAE of LER, G
 and CCT over its pooled outer folds (every lamp tested once), averaged over
@@ -56,6 +62,13 @@ AOI_DEG = np.arange(0.0, 20.01, 2.0)
 PARAMETERS = ("centre_shift_nm", "fwhm_factor", "leakage", "aoi_deg")
 """Deviation types, in the order of the rows."""
 
+CALIBRATED_NOTE = (
+    "*_calibrated: the same scan with the estimator refitted on each outer "
+    "training set to the perturbed (as-built) responses, as a mission that "
+    "measures its filters before launch would train it (same lamps, inner "
+    "folds and noise draws)"
+)
+
 
 def perturbed_bands(bands, *, dc=None, scale=None, leakage=0.0, aoi_deg=0.0):
     """A perturbed copy of a `BandSet`-like set (response callable):
@@ -96,15 +109,25 @@ def perturbed_bands(bands, *, dc=None, scale=None, leakage=0.0, aoi_deg=0.0):
 
 
 def specification_interval(
-    rows, band: str, parameter: str, nominal: float
+    rows, band: str, parameter: str, nominal: float, *, calibrated: bool = False
 ) -> list[float] | None:
-    """`[lo, hi]`: the contiguous run of scan values of (`band`, `parameter`)
-    in `rows` whose `within_10pct` holds, around the scan value nearest
-    `nominal`; None when that value itself fails. An end on the first or
-    last scan value means "at least that far" (the scan limit)."""
-    rr = [r for r in rows if r["band"] == band and r["parameter"] == parameter]
+    """`[lo, hi]`: the contiguous run of scan values of (`band`, `parameter`,
+    `calibrated`) in `rows` whose `within_10pct` holds, around the scan value
+    nearest `nominal`; None when that value itself fails. A row without a
+    `calibrated` field counts as uncalibrated. An end on the first or last
+    scan value means "at least that far" (the scan limit)."""
+    rr = [
+        r
+        for r in rows
+        if r["band"] == band
+        and r["parameter"] == parameter
+        and bool(r.get("calibrated", False)) == calibrated
+    ]
     if not rr:
-        raise ValueError(f"no rows for band {band!r}, parameter {parameter!r}.")
+        raise ValueError(
+            f"no rows for band {band!r}, parameter {parameter!r}, "
+            f"calibrated={calibrated}."
+        )
     vals = np.array([r["value"] for r in rr], float)
     ok = np.array([bool(r["within_10pct"]) for r in rr])
     o = np.argsort(vals, kind="stable")
@@ -125,22 +148,24 @@ def specification_interval(
 class ToleranceAnalysis:
     """`tolerance_analysis`' result.
 
-    - `rows`: one dict per scan point: `band` (a band name or `"all"`),
-      `parameter` (one of `PARAMETERS`), `value`, `mae_LER` [lm/W],
-      `mae_G` [1], `mae_CCT` [K], `ratio_*` to nominal [1], `within_10pct`
-      (the CSV's columns, in this order);
+    - `rows`: one dict per scan point and variant: `band` (a band name or
+      `"all"`), `parameter` (one of `PARAMETERS`), `value`, `mae_LER` [lm/W],
+      `mae_G` [1], `mae_CCT` [K], `ratio_*` to nominal [1], `within_10pct`,
+      `calibrated` (the CSV's columns, in this order);
     - `summary`: the JSON of `tolerance.json` (`rule`, `nominal_mae`,
-      `per_band` intervals, leakage and AOI intervals).
+      `per_band` intervals, leakage and AOI intervals, both variants).
     """
 
     rows: list[dict]
     summary: dict
 
-    def interval(self, band: str, parameter: str):
+    def interval(self, band: str, parameter: str, *, calibrated: bool = False):
         """`specification_interval` of this scan (nominal 1 for FWHM factors,
         0 otherwise)."""
         nominal = 1.0 if parameter == "fwhm_factor" else 0.0
-        return specification_interval(self.rows, band, parameter, nominal)
+        return specification_interval(
+            self.rows, band, parameter, nominal, calibrated=calibrated
+        )
 
 
 def _partition_mae(ctx, resamples, predictions) -> np.ndarray:
@@ -182,7 +207,7 @@ def _scan_points(bands):
         yield "all", "aoi_deg", a, perturbed_bands(bands, aoi_deg=a)
 
 
-def _row(band, parameter, value, mae, nominal) -> dict:
+def _row(band, parameter, value, mae, nominal, calibrated) -> dict:
     ratio = mae / nominal
     return {
         "band": band,
@@ -191,43 +216,67 @@ def _row(band, parameter, value, mae, nominal) -> dict:
         **{f"mae_{m}": float(v) for m, v in zip(METRICS, mae, strict=True)},
         **{f"ratio_{m}": float(v) for m, v in zip(METRICS, ratio, strict=True)},
         "within_10pct": bool(np.all(ratio <= MAX_ERROR_RATIO)),
+        "calibrated": bool(calibrated),
     }
 
 
 def tolerance_analysis(
-    ctx, bands, resamples, *, scorer: str = "ridge", seed: int = 0
+    ctx,
+    bands,
+    resamples,
+    *,
+    scorer: str = "ridge",
+    seed: int = 0,
+    calibrated: bool = True,
 ) -> ToleranceAnalysis:
     """Specification intervals of `bands` (a `BandSet`) on the study context
     `ctx` (`get_context`/`study_resamples`) and its `resamples` (`.train`,
     `.inner`, `.test`, `.partition`), estimator `scorer` (`SCORERS`), noise
-    draws of `seed` (`Context.radiance`). See the module docstring."""
+    draws of `seed` (`Context.radiance`). `calibrated=False` skips the
+    calibrated scan (its keys are then None). See the module docstring."""
     fit = get_scorer(scorer)
     rad0 = ctx.radiance(bands, seed=seed)
     fits = [fit(ctx, bands, rad0, r.train, list(r.inner)) for r in resamples]
+
     nominal = _partition_mae(ctx, resamples, [f(rad0, bands) for f in fits])
-    rows = []
+    rows, rows_calibrated = [], []
     for band, parameter, value, pb in _scan_points(bands):
         rad = ctx.radiance(pb, seed=seed)  # same key: the same noise draws
         mae = _partition_mae(ctx, resamples, [f(rad, pb) for f in fits])
-        rows.append(_row(band, parameter, value, mae, nominal))
+        rows.append(_row(band, parameter, value, mae, nominal, False))
+        if calibrated:
+            own = [fit(ctx, pb, rad, r.train, list(r.inner)) for r in resamples]
+            mae = _partition_mae(ctx, resamples, [f(rad, pb) for f in own])
+            rows_calibrated.append(_row(band, parameter, value, mae, nominal, True))
+    rows += rows_calibrated
 
-    def iv(band, parameter):
+    def iv(band, parameter, cal):
+        """The interval, None for the calibrated variant when not scanned."""
+        if cal and not calibrated:
+            return None
         nominal = 1.0 if parameter == "fwhm_factor" else 0.0
-        return specification_interval(rows, band, parameter, nominal)
+        return specification_interval(rows, band, parameter, nominal, calibrated=cal)
 
-    def meets(interval, lo, hi):
+    def meets(interval, lo, hi, cal):
+        if cal and not calibrated:
+            return None
         return bool(interval is not None and interval[0] <= lo and interval[1] >= hi)
 
     per_band = {}
     for name in bands.names:
-        ci, fi = iv(name, "centre_shift_nm"), iv(name, "fwhm_factor")
+        ci, fi = iv(name, "centre_shift_nm", False), iv(name, "fwhm_factor", False)
+        cc, fc = iv(name, "centre_shift_nm", True), iv(name, "fwhm_factor", True)
         per_band[name] = {
             "centre_shift_interval_nm": ci,
             "fwhm_factor_interval": fi,
-            "meets_centre_pm5nm": meets(ci, -5, 5),
-            "meets_fwhm_pm10pct": meets(fi, 0.9, 1.1),
+            "meets_centre_pm5nm": meets(ci, -5, 5, False),
+            "meets_fwhm_pm10pct": meets(fi, 0.9, 1.1, False),
+            "centre_shift_interval_calibrated_nm": cc,
+            "fwhm_factor_interval_calibrated": fc,
+            "meets_centre_pm5nm_calibrated": meets(cc, -5, 5, True),
+            "meets_fwhm_pm10pct_calibrated": meets(fc, 0.9, 1.1, True),
         }
-    leak = iv("all", "leakage")
+    leak, leak_c = iv("all", "leakage", False), iv("all", "leakage", True)
     summary = {
         "rule": "specification interval: the contiguous range of each deviation "
         "(one band at a time for centre and FWHM; all bands for leakage and "
@@ -236,12 +285,16 @@ def tolerance_analysis(
         f"the nominal bands (deviation not calibrated out; estimator: {scorer}, "
         f"{SCORER_NOTES[scorer]}), same noise draws; "
         "an interval ending on the scan limit (+/-10 nm, x0.8-1.2, 20 deg, "
-        "5 %) means at least that",
+        f"5 %) means at least that; {CALIBRATED_NOTE}"
+        + ("" if calibrated else " (not run: calibrated keys are null)"),
         "nominal_mae": dict(zip(METRICS, map(float, nominal), strict=True)),
         "per_band": per_band,
         "leakage_interval": leak,
-        "meets_leakage_1pct": meets(leak, 0.0, 0.01),
-        "aoi_interval_deg": iv("all", "aoi_deg"),
+        "meets_leakage_1pct": meets(leak, 0.0, 0.01, False),
+        "leakage_interval_calibrated": leak_c,
+        "meets_leakage_1pct_calibrated": meets(leak_c, 0.0, 0.01, True),
+        "aoi_interval_deg": iv("all", "aoi_deg", False),
+        "aoi_interval_calibrated_deg": iv("all", "aoi_deg", True),
         "aoi_model": f"centre * sqrt(1 - sin^2(theta) / n_eff^2), n_eff = {AOI_N_EFF}",
         "leakage_model": LEAKAGE_NOTE,
         "grid": {
