@@ -256,3 +256,74 @@ def test_inversion_coverage_is_read_from_results_estimate(tmp_path):
         "/held_out_lamps/ours~1unknown/LER_coverage": "0.85",
         "/held_out_lamps/ours~1unknown/G_coverage": "None",
     }
+
+
+# ------------------------------------------------------------------- tolerances
+_CAL = (
+    ("centre_tolerance_calibrated_nm", "centre_shift_interval_calibrated_nm"),
+    ("fwhm_tolerance_calibrated_factor", "fwhm_factor_interval_calibrated"),
+)
+_CAL_TOP = ("leakage_interval_calibrated", "meets_leakage_1pct_calibrated",
+            "aoi_interval_calibrated_deg")
+
+
+def _tolerance_files(small, calibrated: bool):
+    """The small results with (a made-up) or without the calibrated scan
+    in both recommendation.json and search/tolerance.json."""
+    rec_path = small / "recommendation.json"
+    tol_path = small / "search" / "tolerance.json"
+    if not tol_path.is_file():
+        pytest.skip("no search/tolerance.json in results/")
+    rec, tol = json.loads(rec_path.read_text()), json.loads(tol_path.read_text())
+    for b in rec["spectral"]["bands"]:
+        t = tol["per_band"][b["name"]]
+        for k, tk in _CAL:
+            b.pop(k, None)
+            t.pop(tk, None)
+            if calibrated:
+                b[k] = t[tk] = [-3.25, 4.75] if "centre" in k else [0.875, 1.125]
+    for k in _CAL_TOP:
+        tol.pop(k, None)
+    if calibrated:
+        tol.update(leakage_interval_calibrated=[0.0, 0.0375],
+                   meets_leakage_1pct_calibrated=True,
+                   aoi_interval_calibrated_deg=None)  # null: nominal failed
+    rec_path.write_text(json.dumps(rec))
+    tol_path.write_text(json.dumps(tol))
+    return rec
+
+
+def test_tolerances_without_the_calibrated_scan_still_build(small, tmp_path):
+    _tolerance_files(small, calibrated=False)  # the files of an older run
+    assert consistency_messages(small) == consistency_messages(RESULTS)
+    res = build_report(small, tmp_path / "out", strict=False)
+    text = res.path.read_text()
+    assert "no calibrated scan in this run" in text
+    page = _Page()
+    page.feed(text)
+    T = "search/tolerance.json"
+    ptrs = {a["data-ptr"] for a in page.nums if a["data-src"] == T}
+    assert {"/leakage_interval/0", "/aoi_interval_deg/1"} <= ptrs
+
+
+def test_calibrated_tolerances_are_shown_and_checked(small, tmp_path):
+    rec = _tolerance_files(small, calibrated=True)
+    assert consistency_messages(small) == consistency_messages(RESULTS)
+    res = build_report(small, tmp_path / "out", strict=False)
+    page = _Page()
+    page.feed(res.path.read_text())
+    got = {(a["data-src"], a["data-ptr"]): a["data-value"] for a in page.nums}
+    assert got[("recommendation.json",
+                "/spectral/bands/0/centre_tolerance_calibrated_nm/0")] == "-3.25"
+    assert got[("recommendation.json",
+                "/spectral/bands/0/fwhm_tolerance_calibrated_factor/1")] == "1.125"
+    assert got[("search/tolerance.json", "/leakage_interval_calibrated/1")] == "0.0375"
+    text = res.path.read_text()
+    assert "no calibrated scan" not in text
+    # a null interval (nominal itself failed) is shown as such, linked
+    assert 'search/tolerance.json /aoi_interval_calibrated_deg">None</a>' in text
+    # a calibrated tolerance that disagrees with tolerance.json is drift
+    rec["spectral"]["bands"][0]["centre_tolerance_calibrated_nm"] = [-1.0, 1.0]
+    (small / "recommendation.json").write_text(json.dumps(rec))
+    msgs = consistency_messages(small)
+    assert any("centre_tolerance_calibrated_nm" in m for m in msgs)

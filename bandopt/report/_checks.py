@@ -131,7 +131,12 @@ def check_spectral(src: Sources) -> list[str]:
             for k, tk in (
                 ("centre_tolerance_nm", "centre_shift_interval_nm"),
                 ("fwhm_tolerance_factor", "fwhm_factor_interval"),
+                ("centre_tolerance_calibrated_nm",
+                 "centre_shift_interval_calibrated_nm"),
+                ("fwhm_tolerance_calibrated_factor", "fwhm_factor_interval_calibrated"),
             ):
+                if "calibrated" in k and k not in b and tk not in t:
+                    continue  # both written before the calibrated scan existed
                 if b.get(k) != t.get(tk):
                     out.append(
                         f"{b['name']} {k}: recommendation.json {b.get(k)} vs "

@@ -102,6 +102,60 @@ def experiments_status(ctx: Ctx) -> str:
     )
 
 
+def _interval_or_none(src: Sources, rel: str, ptr: str, digits: int) -> str:
+    """`src.interval`, or a linked "none" when the file holds null (no
+    deviation tolerated, not even the nominal)."""
+    if src.get(rel, ptr) is None:
+        return src.text(rel, ptr)
+    return src.interval(rel, ptr, digits=digits)
+
+
+def _tolerance_cell(src: Sources, rel: str, p: str, stem: str, unit: str, *,
+                    digits: int) -> str:
+    """A band's tolerance `<stem>_<unit>` with the estimator fitted to the
+    nominal bands, then `<stem>_calibrated_<unit>` (estimator refitted on the
+    as-built responses) when the recommendation has it (runs before the
+    calibrated scan do not)."""
+    cell = _interval_or_none(src, rel, f"{p}/{stem}_{unit}", digits)
+    band = src.get(rel, p)
+    if f"{stem}_calibrated_{unit}" in band:
+        cal = _interval_or_none(src, rel, f"{p}/{stem}_calibrated_{unit}", digits)
+        cell += f"; calibrated {cal}"
+    return cell
+
+
+def _leakage_and_aoi(src: Sources) -> str:
+    """Leakage and angle-of-incidence tolerances of search/tolerance.json,
+    uncalibrated and (when the file has them: runs before the calibrated scan
+    do not) calibrated; empty without the file."""
+    T = "search/tolerance.json"
+    if not src.exists(T):
+        return ""
+    tol = src.load(T)
+
+    def met(key):
+        return " (1 % met: " + src.text(T, "/" + key) + ")"
+
+    leak = "out-of-band leakage " + _interval_or_none(src, T, "/leakage_interval", 3)
+    leak += met("meets_leakage_1pct")
+    aoi = "angle of incidence " + _interval_or_none(src, T, "/aoi_interval_deg", 3)
+    aoi += " deg"
+    if "leakage_interval_calibrated" in tol:
+        leak += "; calibrated " + _interval_or_none(
+            src, T, "/leakage_interval_calibrated", 3
+        ) + met("meets_leakage_1pct_calibrated")
+        aoi += "; calibrated " + _interval_or_none(
+            src, T, "/aoi_interval_calibrated_deg", 3
+        ) + " deg"
+    else:
+        leak += " (no calibrated scan in this run)"
+    return (
+        "<p>Tolerated deviations of all bands at once (errors within 10 %; "
+        "calibrated: estimator refitted on the as-built responses): "
+        + leak + "; " + aoi + ".</p>"
+    )
+
+
 def recommended_sensor(ctx: Ctx) -> str:
     """The Table 5.1 of the thesis: bands with intervals, radiometry, GSD."""
     src = ctx.src
@@ -137,10 +191,10 @@ def recommended_sensor(ctx: Ctx) -> str:
             esc(name),
             src.num(R, p + "/centre_nm", digits=4),
             src.interval(R, p + "/centre_interval_nm", digits=4),
-            src.interval(R, p + "/centre_tolerance_nm", digits=2),
+            _tolerance_cell(src, R, p, "centre_tolerance", "nm", digits=2),
             src.num(R, p + "/fwhm_nm", digits=3),
             src.interval(R, p + "/fwhm_interval_nm", digits=3),
-            src.interval(R, p + "/fwhm_tolerance_factor", digits=3),
+            _tolerance_cell(src, R, p, "fwhm_tolerance", "factor", digits=3),
         ]
         if name in lim_rows:
             rp = f"/{lim_rows[name]}"
@@ -161,6 +215,7 @@ def recommended_sensor(ctx: Ctx) -> str:
          "SNR at limit", "limit set by"],
         rows, caption="Recommended sensor (cf. thesis Table 5.1)", cls="table51",
     ))
+    parts.append(_leakage_and_aoi(src))
     sensor = []
     if rad is None:
         parts.append(ctx.need("radiometry") or missing_box(
