@@ -366,8 +366,10 @@ def cv_loss(*args, **kwargs) -> Float[Array, ""]:
 
 class Estimator(eqx.Module):
     """One ridge model per metric on log-ratio features; each metric's ridge
-    strength and feature degree (1: log ratios, 2: plus their products) chosen
-    by inner cross-validation. `predict` returns `(…, 3)` in [lm W⁻¹], [1], [K]."""
+    strength `lam` and feature degree `degree` (1: log ratios, 2: plus their
+    products) chosen by inner cross-validation, or fixed (`fit_estimator`'s
+    `degree=`, `lam=`: refit the coefficients with an earlier fit's choices).
+    `predict` returns `(…, 3)` in [lm W⁻¹], [1], [K]."""
 
     fits: tuple[RidgeFit, RidgeFit, RidgeFit]
     lam: tuple[float, float, float] = eqx.field(static=True)
@@ -447,29 +449,49 @@ def fit_estimator(
     *,
     degrees: Sequence[int] = DEGREES,
     lambdas: Sequence[float] = LAMBDA_GRID,
+    degree: Sequence[int] | None = None,
+    lam: Sequence[float] | None = None,
 ) -> Estimator:
     """Fit the ridge estimator on `train_lamps`, choosing each metric's feature
     degree from `degrees` and ridge strength from `lambdas` by the
     class-balanced validation MSE summed over the `inner` (train, validation)
-    lamp splits (lamps of `train_lamps` only)."""
+    lamp splits (lamps of `train_lamps` only).
+
+    Fixed hyper-parameters: `degree` and `lam`, per metric (`METRICS` order;
+    e.g. an earlier fit's `Estimator.degree`, `Estimator.lam`), skip the inner
+    cross-validation (`inner`, `degrees` and `lambdas` are then unused) and
+    fit only the coefficients, e.g. to refit on other band responses with the
+    choices made for the nominal ones. Give both or neither."""
+    if (degree is None) != (lam is None):
+        raise ValueError("fix both `degree` and `lam`, or neither.")
     rad = jnp.asarray(radiance)
     y, valid = (jnp.asarray(a) for a in table.scenario_truth())
     vf = valid.astype(rad.dtype)
-    tr, va = (jnp.asarray(a) for a in table.split_weights(inner))
-    xs = {d: log_ratio_features(rad, d) for d in degrees}
-    scores = np.stack(
-        [
-            np.asarray(_inner_scores(xs[d], y, vf, tr, va, jnp.asarray(lambdas)))
-            for d in degrees
-        ]
-    )  # (D, L, 3)
+    if degree is not None:
+        chosen = [(int(d), float(v)) for d, v in zip(degree, lam, strict=True)]
+        if len(chosen) != 3 or any(d not in (1, 2) for d, _ in chosen):
+            raise ValueError(
+                f"fixed degree/lam: one per metric, degree 1 or 2; got {degree}, {lam}."
+            )
+        xs = {d: log_ratio_features(rad, d) for d, _ in chosen}
+    else:
+        tr, va = (jnp.asarray(a) for a in table.split_weights(inner))
+        xs = {d: log_ratio_features(rad, d) for d in degrees}
+        scores = np.stack(
+            [
+                np.asarray(_inner_scores(xs[d], y, vf, tr, va, jnp.asarray(lambdas)))
+                for d in degrees
+            ]
+        )  # (D, L, 3)
+        chosen = []
+        for m in range(3):
+            di, li = np.unravel_index(int(np.argmin(scores[:, :, m])), scores.shape[:2])
+            chosen.append((int(degrees[di]), float(lambdas[li])))
     fits, lams, degs = [], [], []
     w_train = jnp.asarray(table.scenario_weights(train_lamps))
-    for m in range(3):
-        di, li = np.unravel_index(int(np.argmin(scores[:, :, m])), scores.shape[:2])
-        d, lam = int(degrees[di]), float(lambdas[li])
-        fits.append(_fit_jit(xs[d], y[:, m], w_train * vf[:, m], lam))
-        lams.append(lam)
+    for m, (d, lam_m) in enumerate(chosen):
+        fits.append(_fit_jit(xs[d], y[:, m], w_train * vf[:, m], lam_m))
+        lams.append(lam_m)
         degs.append(d)
     lo, hi = training_bounds(table, train_lamps)
     return Estimator(tuple(fits), tuple(lams), tuple(degs), lo, hi)

@@ -1006,9 +1006,19 @@ ESTIMATORS = ("inversion", "ridge", "kernel")
 """Estimators `cross_validate` and `bandopt evaluate` know."""
 
 
-def fit_for_context(ctx, bands, radiance, train, inner, *, surface_mode="unknown"):
+def fit_for_context(
+    ctx,
+    bands,
+    radiance,
+    train,
+    inner,
+    *,
+    surface_mode="unknown",
+    sigma_grid: Sequence[float] = SIGMA_REL_GRID,
+):
     """`fit_inversion` on a `search.Context`'s scenes for one band set (surface
-    knowledge 'unknown' or 'class' — the per-row types come from the context)."""
+    knowledge 'unknown' or 'class' — the per-row types come from the context;
+    `sigma_grid` one value: `σ_rel` fixed)."""
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
     w = band_weights_on(bands, grid)
@@ -1024,6 +1034,7 @@ def fit_for_context(ctx, bands, radiance, train, inner, *, surface_mode="unknown
         surface_mode=surface_mode,
         row_surface=row_types if surface_mode == "class" else None,
         always=always,
+        sigma_grid=sigma_grid,
     )
 
 

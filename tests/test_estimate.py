@@ -91,6 +91,37 @@ def test_estimator_is_brightness_invariant_and_clips_cct():
     assert np.all((p1[:, 2] >= 1000 - 1e-6) & (p1[:, 2] <= 25000 + 1e-6))
 
 
+def test_fixed_hyper_parameters_skip_the_inner_cv_and_refit_the_coefficients():
+    table = _toy_table()
+    rng = np.random.default_rng(6)
+    rad = rng.uniform(0.1, 1.0, size=(table.lamp_of.size, 3))
+    splits = [
+        (np.arange(0, 12, 2), np.arange(1, 12, 2)),
+        (np.arange(1, 12, 2), np.arange(0, 12, 2)),
+    ]
+    train = np.arange(12)
+    est = fit_estimator(rad, table, train, splits)
+    # no inner splits at all: the inner CV cannot have run
+    again = fit_estimator(rad, table, train, (), degree=est.degree, lam=est.lam)
+    assert (again.degree, again.lam) == (est.degree, est.lam)
+    x = jnp.asarray(rad)
+    np.testing.assert_array_equal(
+        np.asarray(again.predict(x)), np.asarray(est.predict(x))
+    )
+    # other radiances: the fixed choices are kept, the coefficients refitted
+    other = rad * rng.uniform(0.5, 2.0, size=rad.shape)
+    refit = fit_estimator(other, table, train, (), degree=est.degree, lam=est.lam)
+    assert (refit.degree, refit.lam) == (est.degree, est.lam)
+    assert not np.allclose(np.asarray(refit.fits[0].coef), np.asarray(est.fits[0].coef))
+    # values outside the grids are used as given
+    odd = fit_estimator(rad, table, train, (), degree=(2, 1, 2), lam=(7.0, 0.5, 3.0))
+    assert (odd.degree, odd.lam) == ((2, 1, 2), (7.0, 0.5, 3.0))
+    with pytest.raises(ValueError, match="both"):
+        fit_estimator(rad, table, train, splits, degree=est.degree)
+    with pytest.raises(ValueError, match="one per metric"):
+        fit_estimator(rad, table, train, (), degree=(3, 1, 1), lam=est.lam)
+
+
 def test_class_balanced_split_weights():
     table = _toy_table()
     # an unbalanced lamp subset: class a has 3 lamps, b 1, c 1

@@ -1,7 +1,8 @@
 """Tolerance analysis (issue 13): the specification-interval rule on hand-made
 rows, and on a small real study context (tiny preset, one lamp partition,
 photon noise) the nominal score, both variants (estimator fitted to the
-nominal bands; refitted on the perturbed ones) and the JSON schema."""
+nominal bands; its coefficients refitted on the perturbed ones with the
+nominal hyper-parameters) and the JSON schema."""
 
 import json
 
@@ -17,12 +18,14 @@ from bandopt.search import (
     tolerance_analysis,
     truth_sd,
 )
-from bandopt.search._study import score_design
+from bandopt.search._study import get_scorer, score_design
 from bandopt.search._tolerance import (
     AOI_DEG,
+    CALIBRATION_FIXED,
     CENTRE_SHIFTS_NM,
     FWHM_FACTORS,
     LEAKAGES,
+    perturbed_bands,
 )
 
 
@@ -139,20 +142,104 @@ def test_nominal_is_the_study_score_and_zero_deviation_gives_ratio_one(study):
                 )
 
 
-def test_refitting_removes_the_bias_of_a_large_deviation(study):
-    """A 5 % flat floor adds the scene's whole out-of-band integral to every
-    band, a bias the nominally fitted estimator never saw; refitting on the
-    as-built responses learns it, leaving only the information the dilution
-    lost. So at the end of the leakage (and AOI) scan the worst metric's
-    ratio, the one the 10 % rule judges, is not larger calibrated.
+def test_the_calibrated_refit_keeps_the_nominal_hyper_parameters(study):
+    """The scorer's refit with `hyper` of the nominal fit on the same outer
+    training set skips the inner CV: it reports the nominal choices, with the
+    nominal responses it reproduces the nominal predictions exactly, and
+    with perturbed ones it keeps the choices where a re-run inner CV does not
+    (5 % leakage: every resample of this context chooses differently)."""
+    ctx, res, bands, _ = study
+    fit = get_scorer("ridge")
+    rad0 = ctx.radiance(bands, seed=SEED)
+    leaky = perturbed_bands(bands, leakage=LEAKAGES[-1])
+    rad = ctx.radiance(leaky, seed=SEED)
+    flips = 0
+    for r in res:
+        nominal = fit(ctx, bands, rad0, r.train, list(r.inner))
+        assert set(nominal.hyper) == {"degree", "lam"}
+        same = fit(ctx, bands, rad0, r.train, [], hyper=nominal.hyper)  # no CV
+        assert same.hyper == nominal.hyper
+        np.testing.assert_array_equal(same(rad0), nominal(rad0))
+        refit = fit(ctx, leaky, rad, r.train, [], hyper=nominal.hyper)
+        assert refit.hyper == nominal.hyper
+        assert not np.array_equal(refit(rad), nominal(rad))  # coefficients moved
+        flips += fit(ctx, leaky, rad, r.train, list(r.inner)).hyper != nominal.hyper
+    assert flips > 0  # so fixing them is not a no-op here
 
-    Not asserted, because it is not true: calibrated <= uncalibrated per
-    metric (here G's uncalibrated error FALLS with leakage, a bias that
-    happens to help) or at small deviations (refitting re-runs the inner-CV
-    choice of feature degree and ridge strength; at 0.25 % leakage a flipped
-    choice moved a metric's test MAE by 8 % on this context and by 11 % on
-    the tiny preset with 4 partitions, against 1-4 % uncalibrated)."""
-    _, _, _, a = study
+
+def test_the_inversion_refit_keeps_sigma_rel(study):
+    """The inversion scorer's `hyper` is its sigma_rel: given back, it is
+    used as is (one resample: the inversion is slower)."""
+    ctx, res, bands, _ = study
+    fit = get_scorer("inversion")
+    rad0 = ctx.radiance(bands, seed=SEED)
+    r = res[0]
+    nominal = fit(ctx, bands, rad0, r.train, list(r.inner))
+    same = fit(ctx, bands, rad0, r.train, list(r.inner), hyper=nominal.hyper)
+    assert same.hyper == nominal.hyper
+    np.testing.assert_array_equal(same(rad0), nominal(rad0))
+    other = 0.003 if nominal.hyper["sigma_rel"] != 0.003 else 0.3
+    forced = fit(ctx, bands, rad0, r.train, list(r.inner), hyper={"sigma_rel": other})
+    assert forced.hyper == {"sigma_rel": other}
+
+
+def _smallest_steps(bands):
+    """(band, parameter, value) of the smallest non-zero step of every smooth
+    deviation (leakage is not smooth at 0, see below)."""
+    out = [("all", "aoi_deg", float(AOI_DEG[1]))]
+    for name in bands.names:
+        out += [(name, "centre_shift_nm", v) for v in (-1.0, 1.0)]
+        out += [(name, "fwhm_factor", v) for v in (0.98, 1.02)]
+    return out
+
+
+def test_calibrated_ratios_are_continuous_and_refitting_removes_large_biases(study):
+    """With the estimator's hyper-parameters fixed at the nominal fit, the
+    calibrated refit changes only coefficients, which follow the responses
+    smoothly. Measured on this context (1 partition x 3 folds):
+
+    - at the smallest step of every smooth deviation (centre +/-1 nm, FWHM
+      x0.98/1.02, AOI 2 deg) calibrated and uncalibrated ratios differ by at
+      most 0.008 (asserted: 0.015) and the calibrated ones stay within
+      1 +/- 0.025 (asserted: 0.03). With the inner CV re-run in the refit
+      (before fixing the hyper-parameters) a flipped choice at a 1 nm shift
+      moved G by 2.8 % against the uncalibrated ratio (B2 +1 nm: 1.035 against
+      1.007), failing the first bound;
+    - at the end of the leakage and AOI scans the worst metric's ratio, the
+      one the 10 % rule judges, is not larger calibrated (5 % leakage: 1.15
+      against 1.26; 20 deg: 1.150 against 1.157): a 5 % floor adds the
+      scene's whole out-of-band integral to every band, a bias the nominally
+      fitted estimator never saw and the refit learns.
+
+    Not asserted, because it is not true even with the hyper-parameters
+    fixed: calibrated <= uncalibrated over the whole leakage scan, or a
+    calibrated leakage interval at least as wide. At 0.25-2 % leakage the
+    calibrated worst ratio is 1.08-1.11 against 1.03-1.07, so the calibrated
+    leakage interval is [0, 0.005] against [0, 0.02] (AOI: [0, 14] against
+    [0, 16] deg: LER 0.8-1.5 % higher calibrated at 8-18 deg). The cause is not
+    hyper-parameter choice but dark bands: the 820 nm band of lamps without
+    near-infrared emission is at or below the feature floor (LOG_FLOOR) in
+    16 % of the rows (photon noise vanishes with the signal), and any leakage
+    lifts it by orders of magnitude: at 1e-6 leakage 4.5 % of the rows move by
+    more than 1 in a log-ratio feature and the ratios move by 1-4 % (LER
+    1.020 uncalibrated, 1.036 calibrated), rising with log(leakage).
+    Per metric calibrated <= uncalibrated fails too (G's uncalibrated error
+    falls with leakage, a bias that happens to help).
+
+    On the search context (291 lamps x 8 scenes, 6S, 4 partitions; the
+    recommended 4 bands + PAN) the stronger property does hold: calibrated
+    ratios <= 1.001 over the whole leakage and AOI scans, intervals [0, 0.05]
+    and [0, 20] deg against [0, 0.0025] and [0, 18] uncalibrated; smallest
+    steps: |calibrated - uncalibrated| <= 0.031 (0.100 with the inner CV
+    re-run). There a band's calibrated centre interval can be the narrower
+    one (B3: [-10, 7] against [-9, 10]; LER rises smoothly to 1.10 from +8 nm
+    calibrated, 1.01 uncalibrated), a trend, not selection noise."""
+    _, _, bands, a = study
+    for key in _smallest_steps(bands):
+        unc = _ratios(_row(a, *key, False))
+        cal = _ratios(_row(a, *key, True))
+        assert np.all(np.abs(cal - unc) <= 0.015), (key, cal, unc)
+        assert np.all(np.abs(cal - 1.0) <= 0.03), (key, cal)
     for p, v in (("leakage", LEAKAGES[-1]), ("aoi_deg", float(AOI_DEG[-1]))):
         unc = _ratios(_row(a, "all", p, v, False)).max()
         cal = _ratios(_row(a, "all", p, v, True)).max()
@@ -204,6 +291,8 @@ def test_summary_has_the_old_keys_and_the_calibrated_ones(study):
         "fwhm_factor": FWHM_FACTORS.tolist(),
     }
     assert "calibrated" in s["rule"] and "refitted" in s["rule"]
+    assert "hyper-parameters fixed at the nominal fit" in s["rule"]
+    assert CALIBRATION_FIXED["ridge"] in s["rule"]
     # the summary's intervals are the rule applied to the rows
     for cal, suffix in ((False, ""), (True, "_calibrated")):
         assert s["leakage_interval" + suffix] == a.interval(

@@ -113,8 +113,8 @@ def _interval_or_none(src: Sources, rel: str, ptr: str, digits: int) -> str:
 def _tolerance_cell(src: Sources, rel: str, p: str, stem: str, unit: str, *,
                     digits: int) -> str:
     """A band's tolerance `<stem>_<unit>` with the estimator fitted to the
-    nominal bands, then `<stem>_calibrated_<unit>` (estimator refitted on the
-    as-built responses) when the recommendation has it (runs before the
+    nominal bands, then `<stem>_calibrated_<unit>` (estimator coefficients
+    refitted on the as-built responses) when the recommendation has it (runs before the
     calibrated scan do not)."""
     cell = _interval_or_none(src, rel, f"{p}/{stem}_{unit}", digits)
     band = src.get(rel, p)
@@ -151,7 +151,8 @@ def _leakage_and_aoi(src: Sources) -> str:
         leak += " (no calibrated scan in this run)"
     return (
         "<p>Tolerated deviations of all bands at once (errors within 10 %; "
-        "calibrated: estimator refitted on the as-built responses): "
+        "calibrated: estimator coefficients refitted on the as-built "
+        "responses, hyper-parameters of the nominal fit): "
         + leak + "; " + aoi + ".</p>"
     )
 

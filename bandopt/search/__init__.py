@@ -11,11 +11,13 @@
   resamples and restarts of one band count in one jitted, vmapped Adam search,
   with the joint estimation/classification loss and the band-overlap penalty;
 - `make_study_task`, `run_study_task`, `SCORERS` (`_study`): stability-study
-  tasks and the pluggable outer-fold estimator; `_analysis`: the stated rules
+  tasks and the pluggable outer-fold estimator (a `FittedScorer`, whose
+  `hyper` a refit can keep); `_analysis`: the stated rules
   (band count, Pareto knee, medoid design);
 - `tolerance_analysis`, `perturbed_bands`, `specification_interval`
   (`_tolerance`): specification intervals of a band set, with the estimator
-  fitted to the nominal bands and refitted on the perturbed (as-built) ones.
+  fitted to the nominal bands and its coefficients refitted on the perturbed
+  (as-built) ones, hyper-parameters fixed (`CALIBRATION_FIXED`).
 """
 
 from ._analysis import (
@@ -71,6 +73,7 @@ from ._study import (
     SCORER_NOTES as SCORER_NOTES,
     SCORERS as SCORERS,
     STUDY_TASK as STUDY_TASK,
+    FittedScorer as FittedScorer,
     get_scorer as get_scorer,
     make_study_task as make_study_task,
     run_study_task as run_study_task,
@@ -95,6 +98,7 @@ from ._task import (
 )
 from ._tolerance import (
     AOI_N_EFF as AOI_N_EFF,
+    CALIBRATION_FIXED as CALIBRATION_FIXED,
     LEAKAGE_NOTE as LEAKAGE_NOTE,
     MAX_ERROR_RATIO as MAX_ERROR_RATIO,
     ToleranceAnalysis as ToleranceAnalysis,

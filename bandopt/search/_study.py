@@ -9,6 +9,7 @@ estimation error per lamp, level-2 macro F1 of the KNN classifier
 Reference-sensor tasks score a fixed band set on the same resamples.
 """
 
+import dataclasses
 import functools
 import time
 from collections.abc import Callable
@@ -43,19 +44,40 @@ inversion costs about as much as the ridge per outer fold, so judging with it
 keeps the study's run time."""
 
 
-def _ridge_fit(ctx, bands, rad, train, inner) -> Callable:
-    """Ridge on centred log ratios (degree and strength by inner CV); returns
-    `predict(radiance, bands) -> (N, 3)` [lm/W, 1, K]."""
-    est = fit_estimator(rad, ctx.table, train, inner)
-    return lambda r, b=None: np.asarray(est.predict(jnp.asarray(r)))
+@dataclasses.dataclass(frozen=True)
+class FittedScorer:
+    """A scorer fitted on one outer training set. Call it as
+    `predict(radiance, bands=None) -> (N, 3)` [lm/W, 1, K]; `hyper` holds its
+    inner-CV choices, which the scorer reuses instead of choosing again when
+    given them back (`fit(..., hyper=fitted.hyper)`: only the rest is refitted)."""
+
+    predict: Callable
+    hyper: dict
+
+    def __call__(self, radiance, bands=None) -> np.ndarray:
+        return self.predict(radiance, bands)
 
 
-def _inversion_fit(ctx, bands, rad, train, inner) -> Callable:
+def _ridge_fit(ctx, bands, rad, train, inner, *, hyper=None) -> FittedScorer:
+    """Ridge on centred log ratios (degree and strength by inner CV, or fixed
+    by `hyper` = `{"degree": (3,), "lam": (3,)}`, one per metric: then only
+    the coefficients are fitted)."""
+    est = fit_estimator(rad, ctx.table, train, inner, **(hyper or {}))
+    return FittedScorer(
+        lambda r, b=None: np.asarray(est.predict(jnp.asarray(r))),
+        {"degree": est.degree, "lam": est.lam},
+    )
+
+
+def _inversion_fit(ctx, bands, rad, train, inner, *, hyper=None) -> FittedScorer:
     """Physics-based inversion (`bandopt.inversion`, surface unknown) fitted on
-    `train`; `predict` inverts only the rows of lamps outside `train` (the
-    outer test lamps; other rows are NaN). A null CCT (the posterior says
-    no meaningful CCT) counts as 25000 K, the far end of the range."""
-    inv = inversion.fit_for_context(ctx, bands, rad, train, inner)
+    `train` (`σ_rel` by inner CV, or fixed by `hyper` = `{"sigma_rel": s}`;
+    the prior's forward model always uses `bands`); `predict` inverts only the
+    rows of lamps outside `train` (the outer test lamps; other rows are NaN).
+    A null CCT (the posterior says no meaningful CCT) counts as 25000 K, the
+    far end of the range."""
+    grid = inversion.SIGMA_REL_GRID if hyper is None else (hyper["sigma_rel"],)
+    inv = inversion.fit_for_context(ctx, bands, rad, train, inner, sigma_grid=grid)
     held = ~np.isin(ctx.table.lamp_of, np.asarray(train))
 
     def predict(r, b=None):
@@ -66,10 +88,11 @@ def _inversion_fit(ctx, bands, rad, train, inner) -> Callable:
         out[rows] = est
         return out
 
-    return predict
+    return FittedScorer(predict, {"sigma_rel": float(inv.sigma_rel)})
 
 
 SCORERS: dict[str, Callable] = {"ridge": _ridge_fit, "inversion": _inversion_fit}
+"""`fit(ctx, bands, radiance, train, inner, *, hyper=None) -> FittedScorer`."""
 
 SCORER_NOTES = {
     "ridge": "ridge regression on centred log band ratios (bandopt.estimate."
