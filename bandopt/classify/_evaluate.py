@@ -14,7 +14,14 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..forward import ScenarioTable, resolve_level
-from ..knn import K_GRID, choose_k, features, make_classifier, resolve_kind
+from ..knn import (
+    K_GRID,
+    choose_k,
+    features,
+    neighbour_labels,
+    resolve_kind,
+    vote_proba,
+)
 from ..names import validate_method
 from ._inversion import evaluate_inversion
 from ._metrics import REJECT_THRESHOLD, reject, reject_curve, scores
@@ -127,9 +134,11 @@ def evaluate_band_set(
             )
             tr = keep & train_rows & table.rows_of_lamps(s.train)
             te = keep & test_rows & table.rows_of_lamps(s.test)
-            clf = make_classifier(k).fit(x[tr], y[tr])
-            p = np.zeros((te.sum(), len(classes)))
-            p[:, clf.classes_] = clf.predict_proba(x[te])
+            # the fraction of the k nearest training rows per class: what
+            # make_classifier(k).fit(...).predict_proba gives (uniform one-vs-
+            # all KNN, tested), without sklearn's full scan per query when every
+            # training row is equidistant (a one-band sensor)
+            p = vote_proba(neighbour_labels(x[tr], y[tr], x[te], k), k, len(classes))
             yt.append(y[te])
             proba_all.append(p)
             lamp_ids.append(np.asarray(table.lamp_ids, object)[table.lamp[te]])
