@@ -1,11 +1,13 @@
 """Sections of results/README.md generated from the experiments' own files.
 
-Run:   python -m experiments.readme_sections classification|spatial [--results DIR]
+Run:   python -m experiments.readme_sections classification|spatial|noise-aware
+       [--results DIR]
 
 `make classify` and `make spatial` call this after the experiment, so the
 README quotes exactly what `results/classify/summary.json` and
 `results/spatial/summary.json` / `overlap.json` hold (the report refuses to
-build when a quoted number disagrees with its file, `bandopt.report`). The
+build when a quoted number disagrees with its file, `bandopt.report`);
+`make noise-aware` writes its section from `results/noise_aware/noise_aware.json`. The
 radiometry section is written by `experiments.radiometry`, the search section
 by `experiments.search`.
 """
@@ -18,6 +20,10 @@ from pathlib import Path
 
 from bandopt.report._checks import spatial_median
 from bandopt.results import update_readme_section
+from bandopt.scene import LIGHTING_CLASSES, class_illuminance_lx
+
+
+SECTIONS = ["classification", "spatial", "noise-aware"]
 
 
 def classification_text(summary: dict) -> str:
@@ -105,6 +111,48 @@ def spatial_text(summary: dict, overlap: dict | None) -> str:
     )
 
 
+def noise_aware_text(data: dict) -> str:
+    """The noise-aware section: bands per signal level, how far they move
+    between the brightest and the dimmest noisy level, and the CV losses."""
+    rows = data["rows"]
+
+    def label(level):
+        if level.upper() not in LIGHTING_CLASSES:
+            return level
+        return f"{level} ({class_illuminance_lx(level):g} lx)"
+
+    def bands(r):
+        return ", ".join(f"{c:.0f}/{f:.0f}" for c, f in sorted(r["bands"]))
+
+    noisy = [r for r in rows if r["level"] != "noise-free"]
+    free = [r for r in rows if r["level"] == "noise-free"]
+    listing = "; ".join(f"{label(r['level'])} {bands(r)}" for r in noisy + free)
+    text = [
+        "## Noise-aware bands (`results/noise_aware`, `make noise-aware`)\n",
+        f"{data.get('note', '')}. Photon noise at EN 13201 class levels (scenes of "
+        "that class only, no Moon; the noise-free row uses the default preset with "
+        "Moon, so its loss is not comparable). Bands (centre/FWHM nm): "
+        f"{listing}.",
+    ]
+    if len(noisy) >= 2:
+        a = sorted(noisy[0]["bands"])
+        b = sorted(noisy[-1]["bands"])
+        dc = max(abs(x[0] - y[0]) for x, y in zip(a, b, strict=True))
+        dw = max(abs(x[1] - y[1]) for x, y in zip(a, b, strict=True))
+        losses = " -> ".join(f"{r['cv_loss']:.2f}" for r in noisy)
+        text.append(
+            f"From {noisy[0]['level']} to {noisy[-1]['level']} the bands (sorted "
+            f"by centre) move by at most {dc:.0f} nm in centre and {dw:.0f} nm in "
+            f"width; the CV loss goes {losses}."
+        )
+    text.append(
+        "Figure: `bands_vs_signal.png`. One seed, one search per level: "
+        "indicative only. Generated from `noise_aware.json` by "
+        "`python -m experiments.readme_sections noise-aware`."
+    )
+    return text[0] + "\n" + " ".join(text[1:])
+
+
 def write(section: str, results: str | Path = "results") -> Path:
     root = Path(results)
     if section == "classification":
@@ -121,14 +169,20 @@ def write(section: str, results: str | Path = "results") -> Path:
             "spatial", spatial_text(summary, overlap),
             heading="## Spatial sampling", results_dir=root,
         )
+    if section == "noise-aware":
+        data = json.loads((root / "noise_aware" / "noise_aware.json").read_text())
+        return update_readme_section(
+            "noise-aware", noise_aware_text(data),
+            heading="## Noise-aware bands", results_dir=root,
+        )
     raise ValueError(
-        f"unknown section {section!r}; expected one of ['classification', 'spatial']"
+        f"unknown section {section!r}; expected one of {SECTIONS}"
     )
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("section", choices=["classification", "spatial"])
+    p.add_argument("section", choices=SECTIONS)
     p.add_argument("--results", default="results")
     args = p.parse_args(argv)
     print(f"wrote {write(args.section, args.results)}")

@@ -39,3 +39,25 @@ def test_classification_text_follows_the_summary():
     row["level2_macro_f1"] = 0.123
     assert "0.12 / " in readme_sections.classification_text(changed)
     assert "0.12 / " not in readme_sections.classification_text(summary)
+
+
+def test_noise_aware_text_follows_the_file(tmp_path):
+    data = {
+        "note": "3 free bands + fixed pan",
+        "rows": [
+            {"level": "noise-free", "cv_loss": 0.5, "bands": [[500.0, 100.0]]},
+            {"level": "C0", "cv_loss": 0.2, "bands": [[440.0, 100.0]]},
+            {"level": "P6", "cv_loss": 0.6, "bands": [[452.0, 130.0]]},
+        ],
+    }
+    text = readme_sections.noise_aware_text(data)
+    # C0 and P6 are 50 and 2 lx (bandopt.scene.LIGHTING_CLASSES)
+    assert "C0 (50 lx) 440/100; P6 (2 lx) 452/130; noise-free 500/100" in text
+    assert "at most 12 nm in centre and 30 nm in width" in text
+    assert "0.20 -> 0.60" in text
+    (tmp_path / "noise_aware").mkdir()
+    (tmp_path / "noise_aware" / "noise_aware.json").write_text(json.dumps(data))
+    (tmp_path / "README.md").write_text("# Results\n\n## Noise-aware bands\n\nold\n")
+    readme_sections.write("noise-aware", tmp_path)
+    out = (tmp_path / "README.md").read_text()
+    assert "old" not in out and out.count("<!-- noise-aware:start -->") == 1
