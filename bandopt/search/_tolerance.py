@@ -59,8 +59,9 @@ CENTRE_SHIFTS_NM = np.arange(-10.0, 10.01, 1.0)
 FWHM_FACTORS = np.round(np.arange(0.80, 1.2001, 0.02), 4)
 """FWHM factors scanned, one band at a time. [1]"""
 
-LEAKAGES = (0.0, 0.0025, 0.005, 0.01, 0.02, 0.05)
-"""Out-of-band leakage floors scanned, all bands at once (`LEAKAGE_NOTE`). [1]"""
+LEAKAGES = (0.0, 1e-4, 3e-4, 1e-3, 0.0025, 0.005, 0.01, 0.02, 0.05)
+"""Out-of-band leakage floors scanned, all bands at once (`LEAKAGE_NOTE`): from
+blocking of optical density 4 (1e-4, a good hard-coated band-pass) to 5 %. [1]"""
 
 AOI_DEG = np.arange(0.0, 20.01, 2.0)
 """Angles of incidence scanned, all bands at once. [deg]"""
