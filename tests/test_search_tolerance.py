@@ -61,6 +61,17 @@ def test_interval_ends_on_the_scan_limit_and_is_none_when_nominal_fails():
     leak = _rows([0.0, 0.0025, 0.005], [True, False, True], band="all",
                  parameter="leakage")  # fmt: skip
     assert specification_interval(leak, "all", "leakage", 0.0) == [0.0, 0.0]
+    # one metric at a time: the ratio of that metric alone decides
+    for r, ratio in zip(leak, (1.0, 1.05, 1.2), strict=True):
+        r["ratio_LER"], r["ratio_G"] = ratio, 1.0
+    assert specification_interval(
+        leak, "all", "leakage", 0.0, metric="LER"
+    ) == [0.0, 0.0025]
+    assert specification_interval(
+        leak, "all", "leakage", 0.0, metric="G"
+    ) == [0.0, 0.005]
+    with pytest.raises(ValueError, match="metric 'X'"):
+        specification_interval(leak, "all", "leakage", 0.0, metric="X")
 
 
 def test_interval_separates_the_variants_and_reads_old_rows():
@@ -269,6 +280,10 @@ NEW_KEYS = [
     "leakage_interval_calibrated",
     "meets_leakage_1pct_calibrated",
     "aoi_interval_calibrated_deg",
+    "leakage_interval_by_metric",
+    "leakage_interval_by_metric_calibrated",
+    "aoi_interval_by_metric_deg",
+    "aoi_interval_by_metric_calibrated_deg",
 ]
 NEW_BAND_KEYS = [
     "centre_shift_interval_calibrated_nm",
@@ -303,6 +318,17 @@ def test_summary_has_the_old_keys_and_the_calibrated_ones(study):
         )
         iv = s["leakage_interval" + suffix]
         assert s["meets_leakage_1pct" + suffix] == (iv is not None and iv[1] >= 0.01)
+        for key, parameter in (
+            ("leakage_interval_by_metric" + suffix, "leakage"),
+            ("aoi_interval_by_metric" + suffix + "_deg", "aoi_deg"),
+        ):
+            per = s[key]
+            assert set(per) == {"LER", "G", "CCT"}
+            for m, v in per.items():
+                assert v == a.interval("all", parameter, calibrated=cal, metric=m)
+            # the joint interval is the narrowest of the per-metric ones
+            joint = a.interval("all", parameter, calibrated=cal)
+            assert joint[1] == min(v[1] for v in per.values())
         for name, v in s["per_band"].items():
             ci = v["centre_shift_interval" + suffix + "_nm"]
             fi = v["fwhm_factor_interval" + suffix]
@@ -324,7 +350,9 @@ def test_without_the_calibrated_scan_its_keys_are_null(study):
     assert not any(r["calibrated"] for r in a.rows)
     s = a.summary
     assert set(s) == set(OLD_KEYS + NEW_KEYS)
-    assert all(s[k] is None for k in NEW_KEYS)
+    calibrated_keys = [k for k in NEW_KEYS if "calibrated" in k]
+    assert all(s[k] is None for k in calibrated_keys)
+    assert s["leakage_interval_by_metric"] is not None  # uncalibrated: scanned
     assert all(s["per_band"]["B1"][k] is None for k in NEW_BAND_KEYS)
     assert "not run" in s["rule"]
     assert s["leakage_interval"] is not None

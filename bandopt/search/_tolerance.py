@@ -126,13 +126,22 @@ def perturbed_bands(bands, *, dc=None, scale=None, leakage=0.0, aoi_deg=0.0):
 
 
 def specification_interval(
-    rows, band: str, parameter: str, nominal: float, *, calibrated: bool = False
+    rows,
+    band: str,
+    parameter: str,
+    nominal: float,
+    *,
+    calibrated: bool = False,
+    metric: str | None = None,
 ) -> list[float] | None:
     """`[lo, hi]`: the contiguous run of scan values of (`band`, `parameter`,
-    `calibrated`) in `rows` whose `within_10pct` holds, around the scan value
-    nearest `nominal`; None when that value itself fails. A row without a
-    `calibrated` field counts as uncalibrated. An end on the first or last
-    scan value means "at least that far" (the scan limit)."""
+    `calibrated`) in `rows` whose `within_10pct` holds (with `metric`, one of
+    `METRICS`: whose `ratio_<metric>` alone is <= `MAX_ERROR_RATIO`), around
+    the scan value nearest `nominal`; None when that value itself fails. A row
+    without a `calibrated` field counts as uncalibrated. An end on the first
+    or last scan value means "at least that far" (the scan limit)."""
+    if metric is not None and metric not in METRICS:
+        raise ValueError(f"metric {metric!r}: expected one of {list(METRICS)}.")
     rr = [
         r
         for r in rows
@@ -146,7 +155,14 @@ def specification_interval(
             f"calibrated={calibrated}."
         )
     vals = np.array([r["value"] for r in rr], float)
-    ok = np.array([bool(r["within_10pct"]) for r in rr])
+    ok = np.array(
+        [
+            bool(r["within_10pct"])
+            if metric is None
+            else float(r[f"ratio_{metric}"]) <= MAX_ERROR_RATIO
+            for r in rr
+        ]
+    )
     o = np.argsort(vals, kind="stable")
     vals, ok = vals[o], ok[o]
     j = int(np.argmin(np.abs(vals - nominal)))
@@ -176,12 +192,19 @@ class ToleranceAnalysis:
     rows: list[dict]
     summary: dict
 
-    def interval(self, band: str, parameter: str, *, calibrated: bool = False):
+    def interval(
+        self,
+        band: str,
+        parameter: str,
+        *,
+        calibrated: bool = False,
+        metric: str | None = None,
+    ):
         """`specification_interval` of this scan (nominal 1 for FWHM factors,
         0 otherwise)."""
         nominal = 1.0 if parameter == "fwhm_factor" else 0.0
         return specification_interval(
-            self.rows, band, parameter, nominal, calibrated=calibrated
+            self.rows, band, parameter, nominal, calibrated=calibrated, metric=metric
         )
 
 
@@ -270,12 +293,20 @@ def tolerance_analysis(
             rows_calibrated.append(_row(band, parameter, value, mae, nominal, True))
     rows += rows_calibrated
 
-    def iv(band, parameter, cal):
+    def iv(band, parameter, cal, metric=None):
         """The interval, None for the calibrated variant when not scanned."""
         if cal and not calibrated:
             return None
         nominal = 1.0 if parameter == "fwhm_factor" else 0.0
-        return specification_interval(rows, band, parameter, nominal, calibrated=cal)
+        return specification_interval(
+            rows, band, parameter, nominal, calibrated=cal, metric=metric
+        )
+
+    def by_metric(parameter, cal):
+        """Per-metric intervals: which metric sets the joint limit."""
+        if cal and not calibrated:
+            return None
+        return {m: iv("all", parameter, cal, m) for m in METRICS}
 
     def meets(interval, lo, hi, cal):
         if cal and not calibrated:
@@ -314,8 +345,12 @@ def tolerance_analysis(
         "meets_leakage_1pct": meets(leak, 0.0, 0.01, False),
         "leakage_interval_calibrated": leak_c,
         "meets_leakage_1pct_calibrated": meets(leak_c, 0.0, 0.01, True),
+        "leakage_interval_by_metric": by_metric("leakage", False),
+        "leakage_interval_by_metric_calibrated": by_metric("leakage", True),
         "aoi_interval_deg": iv("all", "aoi_deg", False),
         "aoi_interval_calibrated_deg": iv("all", "aoi_deg", True),
+        "aoi_interval_by_metric_deg": by_metric("aoi_deg", False),
+        "aoi_interval_by_metric_calibrated_deg": by_metric("aoi_deg", True),
         "aoi_model": f"centre * sqrt(1 - sin^2(theta) / n_eff^2), n_eff = {AOI_N_EFF}",
         "leakage_model": LEAKAGE_NOTE,
         "grid": {
