@@ -1055,6 +1055,15 @@ def study(args) -> dict:
     return summary_json
 
 
+
+def _per_metric(intervals) -> str:
+    """`[lo, hi] / [lo, hi] / [lo, hi]` of a per-metric interval dict
+    (older tolerance files lack it: "not computed")."""
+    if not intervals:
+        return "not computed"
+    return " / ".join(str(intervals[m]) for m in ("LER", "G", "CCT"))
+
+
 def write_study_readme(s, stab, tol, rec_key, wall, out: Path) -> None:
     """Replace this experiment's section in results/README.md."""
     readme = Path("results") / "README.md"
@@ -1185,7 +1194,9 @@ leakage interval {tol["leakage_interval"]}
 {tol["leakage_interval_calibrated"]}
 (1 % met: {tol["meets_leakage_1pct_calibrated"]});
 angle of incidence {tol["aoi_interval_deg"]} deg, calibrated
-{tol["aoi_interval_calibrated_deg"]} deg.
+{tol["aoi_interval_calibrated_deg"]} deg. Per metric (LER / G / CCT), leakage
+{_per_metric(tol.get("leakage_interval_by_metric"))}, calibrated
+{_per_metric(tol.get("leakage_interval_by_metric_calibrated"))}.
 
 Comparison (same estimator, same partitions; reductions with 95 % paired CIs):
 
