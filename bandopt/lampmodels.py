@@ -869,7 +869,7 @@ def sample_library(
                 f"calibrations[{level2!r}] is a calibration of {cal.level2!r}."
             )
         z = sample_z(cal, n_per_class, seed + 7919 * k)
-        spectra = model_spectra(family, z, w)
+        spectra = np.array(model_spectra(family, z, w))  # writable: NIR filled below
         end = cal.model_end_nm
         beyond = w > end
         level1 = LEVEL2_PARENT[level2]
