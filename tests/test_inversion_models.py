@@ -73,7 +73,7 @@ def fits(case):
         calls.append((level2, tuple(train_lamps), cal.lamps))
         return cal
 
-    kw = dict(basis=inv_mod.surface_basis(GRID))
+    kw = dict(basis=inv_mod._basis(GRID))  # cached: shared with the other tests
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(lampmodels, "calibrate", spy)
         plain = inv_mod.fit_inversion(rad, row_lamp, lamps, train, inner, w, cond, **kw)
@@ -297,3 +297,77 @@ def test_summary_rows_say_how_many_modelled_lamps():
     rows = {r["estimator"]: r for r in inv_mod.summarise(new)}
     assert rows["inversion"]["modelled_per_class"] == 0
     assert rows["inversion+models"]["modelled_per_class"] == 5
+
+
+# -- bandopt evaluate --estimator inversion --modelled-per-class N ------------
+
+
+def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkeypatch):
+    from bandopt.cli import _cmd_evaluate
+
+    lamps, row_lamp, *_ = case
+    seen = {}
+
+    def fake_fit(*a, **kw):
+        seen.update(kw)
+        n = kw["modelled_per_class"]
+        added = {"mercury": n} if n else {}
+        return types.SimpleNamespace(
+            prior=types.SimpleNamespace(ids=("a", "b", "c") + ("m",) * n),
+            sigma_rel=0.03,
+            diagnostics={"modelled_lamps": {"n_per_class": n, "added": added}},
+        )
+
+    setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
+    monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
+    monkeypatch.setattr(inv_mod, "fit_inversion", fake_fit)
+    # what the stub ignores: the surface prior and the Sentinel-2 retrieval
+    monkeypatch.setattr(inv_mod, "surface_basis", inv_mod._basis)
+    monkeypatch.setattr(inv_mod, "measured_surfaces", lambda *a, **k: None)
+    ctx = _fake_context(case)
+    ctx.table.n_lamps = len(lamps.ids)
+    for n in (0, 4):
+        args = types.SimpleNamespace(estimator="inversion", modelled_per_class=n)
+        _, _, desc = _cmd_evaluate._fit(args, ctx, FIVE, "unknown")
+        assert seen["modelled_per_class"] == n
+        if n:
+            assert "3 measured library lamps and 4 modelled lamps" in desc
+            assert "4 per class of mercury" in desc
+        else:
+            assert "prior over 3 measured library lamps," in desc
+
+
+def test_evaluate_json_says_how_many_modelled_lamps(
+    case, monkeypatch, tmp_path, capsys
+):
+    import json
+
+    import bandopt.search
+    from bandopt.cli import _cmd_evaluate, main
+    from bandopt.cli._cmd_bands import _load
+
+    lamps, *_ = case
+    basis = inv_mod._basis(GRID)
+    w = inv_mod.band_weights_on(_load("sdgsat-1")[0], GRID)
+    inv = inv_mod.build_inversion(lamps, w, inv_mod.Conditions.clear(GRID), basis)
+    seen = []
+
+    def fake_fit(args, ctx, bands, mode):
+        seen.append(args.modelled_per_class)
+        return inv, basis, "stub"
+
+    monkeypatch.setattr(bandopt.search, "get_context", lambda *a, **k: None)
+    monkeypatch.setattr(_cmd_evaluate, "_fit", fake_fit)
+    spec = tmp_path / "l.csv"
+    spec.write_text(
+        "".join(f"{x},{v}\n" for x, v in zip(GRID, lamps.spectra[0], strict=True))
+    )
+    argv = ["evaluate", "--bands", "sdgsat-1", "--lamps", str(spec), "--json"]
+    for n in (0, 5):
+        assert main([*argv, "--modelled-per-class", str(n)]) == 0
+        out = json.loads(capsys.readouterr().out)
+        assert out["modelled_lamps_used"] == n
+    assert seen == [0, 5]
+    assert main([*argv, "--estimator", "ridge", "--modelled-per-class", "2"]) == 2
+    assert "--estimator inversion only" in capsys.readouterr().err
+    assert main([*argv, "--modelled-per-class", "-1"]) == 2
