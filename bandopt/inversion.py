@@ -659,9 +659,10 @@ def library_lamps(wavelength_nm, *, scored: bool) -> LampSet:
 MODELLED_CLASSES = ("lps", "mercury", "led_amber", "metal_halide", "hps")
 """Level-2 classes that get modelled lamps by default: the rare outdoor
 classes (2-11 measured lamps each). The white LED classes (`led_warm`,
-`led_cool`, ~150 measured lamps) also have a model but are left out by
-default: they are well sampled, and fitting their lamps costs more than the
-rest together (see `modelled_lamps`)."""
+`led_cool`, 150 measured lamps) also have a model but are left out by
+default: they are well sampled already, and fitting their lamps adds ~3 min
+per process (see `modelled_lamps`); pass them in `modelled_classes` to use
+them. Fluorescent and incandescent lamps have no model."""
 
 MIN_CALIBRATION_LAMPS = 2
 """Least measured training lamps of a class for its model to be sampled: a
@@ -701,13 +702,17 @@ def modelled_lamps(
     lamp outside `train_ids` (never expected: a leak).
 
     **Cost.** `lampmodels.calibrate` fits every calibration lamp once per
-    process (Levenberg-Marquardt, cached). Measured on this machine with both
-    cores busy: 0.1-1 s per lamp once compiled, but each family and padded
-    observation count compiles once (5-15 s; up to ~2 min for a metal-halide
-    lamp); all 34 measured lamps of the five default classes: ~350 s in a
-    fresh process (LPS 25 s, mercury 13 s, amber LED 27 s, metal halide
-    214 s, HPS 71 s). The ~150 white LEDs: see `MODELLED_CLASSES`.
-    Calibrating and sampling once fitted: < 0.1 s per class.
+    process (Levenberg-Marquardt, 4 starts, cached per lamp), so a
+    cross-validation pays it once, whatever its folds. Measured on a 2-core
+    machine busy with other runs (so up to ~2x slow): one fit takes 0.1-1 s
+    (median 0.6-1 s for the LEDs), but the first fit of each family and
+    padded observation count compiles (5-50 s; one metal-halide lamp 120 s).
+    The 34 measured lamps of the five `MODELLED_CLASSES`: 350 s in one fresh
+    process (LPS 25 s, mercury 13 s, amber LED 27 s, metal halide 214 s,
+    HPS 71 s) and 630 s in a second, busier run (metal halide 470 s). All 184
+    measured lamps with a model (the scored ones and LPS; with the white LEDs:
+    97 warm 70 s, 53 cool 126 s): 823 s. Calibrating and sampling once
+    fitted: < 0.1 s per class.
     """
     if n_per_class < 1:
         raise ValueError(f"n_per_class must be >= 1 (got {n_per_class}).")

@@ -27,7 +27,8 @@ lamps only (`bandopt.inversion.fit_inversion`), and the same for the
 unseen-types study (`unseen_types.json` entry `recommended+models`). Test
 lamps stay measured lamps only. Every record of such a run, the summary
 rows, the README section and the manifest say `modelled_per_class`. The
-first use fits the models to their measured lamps: ~6 min per process.
+first use fits the models to their measured lamps: 6-11 min per process
+on a busy 2-core machine (`bandopt.inversion.modelled_lamps`).
 """
 
 import argparse
