@@ -371,3 +371,20 @@ def test_evaluate_json_says_how_many_modelled_lamps(
     assert main([*argv, "--estimator", "ridge", "--modelled-per-class", "2"]) == 2
     assert "--estimator inversion only" in capsys.readouterr().err
     assert main([*argv, "--modelled-per-class", "-1"]) == 2
+
+
+def test_unseen_class_never_gets_a_model_of_itself(case, monkeypatch):
+    """Leave-one-class-out: the held-out class's model cannot be calibrated
+    (its lamps are not training lamps), every other modelled class is."""
+    lamps, row_lamp, *_ = case
+    setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
+    monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
+    recs = inv_mod.leave_one_class_out(
+        _fake_context(case), FIVE, modelled_per_class=2, modelled_classes=("mercury",)
+    )
+    assert {r["held_out_class"] for r in recs} == set(CLASSES)
+    for r in recs:
+        assert r["modelled_per_class"] == 2
+        want = {} if r["held_out_class"] == "mercury" else {"mercury": 2}
+        assert r["modelled_classes_added"] == want
+    assert {r["lamp"] for r in recs} == set(lamps.ids)  # measured lamps only
