@@ -1170,7 +1170,8 @@ def fit_inversion(
 
 
 ESTIMATORS = ("inversion", "ridge", "kernel")
-"""Estimators `cross_validate` and `bandopt evaluate` know."""
+"""Estimators `cross_validate` and `bandopt evaluate` know (`cross_validate`
+also "inversion+models": the inversion with modelled lamps in its prior)."""
 
 
 def fit_for_context(
@@ -1378,7 +1379,10 @@ def cross_validate(
                     None,
                 )
             else:
-                raise ValueError(f"estimator {name!r}: expected one of {ESTIMATORS}.")
+                raise ValueError(
+                    f"estimator {name!r}: expected one of "
+                    f"{(*ESTIMATORS, 'inversion+models')}."
+                )
         for (name, mode), (p, inv) in preds.items():
             res = p if isinstance(p, InversionResult) else None
             est = res.estimate if res is not None else p
