@@ -20,7 +20,12 @@ pixel's brightness: `α` and `β` are solved for in closed form.
   non-negative mixture of issue 12 in its one-component limit, so the posterior
   is a weighted set of real, measured spectra. Measured lamps of classes too
   small to be scored (e.g. low-pressure sodium) always belong to the prior:
-  they are never scored, so they cannot leak.
+  they are never scored, so they cannot leak. Optionally
+  (`modelled_per_class > 0`, default 0: measured lamps only) the prior also
+  holds modelled lamps of rare classes (`modelled_lamps`): spectra of the
+  physical lamp models (`bandopt.lampmodels`) calibrated on that fit's
+  measured training lamps only, labelled with their class, in the prior and
+  the type posteriors but never scored.
 - Surface: a low-rank basis (weighted PCA, each surface type the same weight)
   of the library reflectances (`bandopt.datasets.surfaces`), with candidate
   surfaces given by what is known (`SURFACE_MODES`): nothing (the mean of
@@ -66,6 +71,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.scipy.special import logsumexp
 
+from . import lampmodels
 from .datasets import surfaces as surf_mod
 from .datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT, library
 from .estimate import (
@@ -650,6 +656,125 @@ def library_lamps(wavelength_nm, *, scored: bool) -> LampSet:
     )
 
 
+MODELLED_CLASSES = ("lps", "mercury", "led_amber", "metal_halide", "hps")
+"""Level-2 classes that get modelled lamps by default: the rare outdoor
+classes (2-11 measured lamps each). The white LED classes (`led_warm`,
+`led_cool`, 150 measured lamps) also have a model but are left out by
+default: they are well sampled already, and fitting their lamps adds ~3 min
+per process (see `modelled_lamps`); pass them in `modelled_classes` to use
+them. Fluorescent and incandescent lamps have no model."""
+
+MIN_CALIBRATION_LAMPS = 2
+"""Least measured training lamps of a class for its model to be sampled: a
+calibration on one lamp has no spread (every sample would be that lamp's
+fit). A class with fewer training lamps in a fit gets no modelled lamps."""
+
+MODELLED_SEED_STRIDE = 104729
+"""Seed offset between classes of one `modelled_lamps` call (a prime, so the
+classes' draws never share a seed)."""
+
+
+def modelled_lamps(
+    train_ids: Sequence[str],
+    wavelength_nm,
+    n_per_class: int,
+    *,
+    classes: Sequence[str] = MODELLED_CLASSES,
+    seed: int = 0,
+) -> tuple[LampSet, dict]:
+    """Modelled lamps for one fit's prior: `n_per_class` spectra per level-2
+    class in `classes` whose model is calibrated ONLY on the measured lamps
+    among `train_ids` (`lampmodels.calibrate(c, train_ids)`), labelled with
+    the class and its level-1 parent.
+
+    A class with fewer than `MIN_CALIBRATION_LAMPS` measured lamps among
+    `train_ids` gets none (listed in `skipped`). Spectra are sampled on the
+    library grid (`lampmodels.sample_library`, seed `seed + 104729 j` for the
+    j-th class of `classes`; near-infrared beyond the calibration lamps'
+    measured range: the library's extension), then put on `wavelength_nm` the
+    way the library puts measured lamps on a grid: linear interpolation, then
+    one lumen on that grid (`lampmodels.per_lumen`, the library's
+    `683 ∫ V S dλ = 1`). [W nm⁻¹ lm⁻¹]
+
+    Returns the lamps (ids `model_<class>_<seed>_<j>`) and a record: lamps
+    added per class, the calibration lamps per class, the skipped classes with
+    their training-lamp count. Raises `RuntimeError` if a calibration used a
+    lamp outside `train_ids` (never expected: a leak).
+
+    **Cost.** `lampmodels.calibrate` fits every calibration lamp once per
+    process (Levenberg-Marquardt, 4 starts, cached per lamp), so a
+    cross-validation pays it once, whatever its folds. Measured on a 2-core
+    machine busy with other runs (so up to ~2x slow): one fit takes 0.1-1 s
+    (median 0.6-1 s for the LEDs), but the first fit of each family and
+    padded observation count compiles (5-50 s; one metal-halide lamp 120 s).
+    The 34 measured lamps of the five `MODELLED_CLASSES`: 350 s in one fresh
+    process (LPS 25 s, mercury 13 s, amber LED 27 s, metal halide 214 s,
+    HPS 71 s) and 630 s in a second, busier run (metal halide 470 s). All 184
+    measured lamps with a model (the scored ones and LPS; with the white LEDs:
+    97 warm 70 s, 53 cool 126 s): 823 s. Calibrating and sampling once
+    fitted: < 0.1 s per class.
+    """
+    if n_per_class < 1:
+        raise ValueError(f"n_per_class must be >= 1 (got {n_per_class}).")
+    grid = np.asarray(wavelength_nm, float)
+    lib = library()
+    train = set(train_ids)
+    ids, spectra, level1, level2 = [], [], [], []
+    added, calibrated_on, skipped = {}, {}, {}
+    for j, c in enumerate(classes):
+        lampmodels.family_of(c)  # ValueError: no model for this class
+        members = [
+            r.id
+            for r in lib.records
+            if r.level2 == c
+            and not r.modelled
+            and r.excluded is None
+            and r.id in train
+        ]
+        if len(members) < MIN_CALIBRATION_LAMPS:
+            skipped[c] = len(members)
+            continue
+        cal = lampmodels.calibrate(c, list(train_ids))
+        if not set(cal.lamps) <= train:
+            raise RuntimeError(
+                f"{c}: model calibrated on lamps outside the fit's training "
+                f"lamps: {sorted(set(cal.lamps) - train)}."
+            )
+        out = lampmodels.sample_library(
+            [c], n_per_class, seed + MODELLED_SEED_STRIDE * j, calibrations={c: cal}
+        )
+        if not all(r.modelled for r in out.records):
+            raise RuntimeError("sample_library returned a lamp not marked modelled.")
+        v = np.asarray(out.values, float)
+        w = np.asarray(out.wavelength_nm, float)
+        if w.shape != grid.shape or not np.allclose(w, grid):
+            v = np.stack([np.interp(grid, w, row) for row in v])
+            v = lampmodels.per_lumen(grid, v)
+        if not np.all(np.isfinite(v)):
+            raise RuntimeError(f"{c}: modelled spectra are not finite on the grid.")
+        ids += [r.id for r in out.records]
+        spectra.append(v)
+        level1 += [r.level1 for r in out.records]
+        level2 += [c] * len(out.records)
+        added[c] = len(out.records)
+        calibrated_on[c] = list(cal.lamps)
+    lamps = LampSet(
+        tuple(ids),
+        np.vstack(spectra) if spectra else np.zeros((0, grid.size)),
+        tuple(level1),
+        tuple(level2),
+    )
+    info = {
+        "n_per_class": int(n_per_class),
+        "added": added,
+        "calibration_lamps": calibrated_on,
+        "skipped": skipped,
+        "min_calibration_lamps": MIN_CALIBRATION_LAMPS,
+        "seed": int(seed),
+    }
+    return lamps, info
+
+
 @dataclasses.dataclass(frozen=True)
 class InversionResult:
     """Per pixel: `estimate` (n, 3) [lm W⁻¹], [1], [K] (CCT NaN where not
@@ -889,6 +1014,9 @@ def fit_inversion(
     row_surface=None,
     always: LampSet | None = None,
     sigma_grid: Sequence[float] = SIGMA_REL_GRID,
+    modelled_per_class: int = 0,
+    modelled_classes: Sequence[str] = MODELLED_CLASSES,
+    modelled_seed: int = 0,
 ) -> Inversion:
     """Fit an inversion on `train_lamps` (indices into `lamps`).
 
@@ -897,7 +1025,21 @@ def fit_inversion(
     lamp splits of `train_lamps` on which `σ_rel`, the conformal factors and the
     unexplained threshold are chosen (never the lamps scored later).
     `row_surface`: per-pixel surface knowledge for modes 'class'/'measured'.
-    `always`: lamps that are in every prior and never scored."""
+    `always`: lamps that are in every prior and never scored.
+
+    `modelled_per_class` (default 0: measured lamps only): add that many
+    modelled lamps per class of `modelled_classes` to every prior this fit
+    builds (`modelled_lamps`, seed `modelled_seed`), each calibrated on the
+    measured lamps of THAT prior only: the final prior on `train_lamps` plus
+    `always`, each inner fold's prior on its own training lamps plus `always`
+    (so the inner validation lamps that set `σ_rel`, the conformal factors
+    and the threshold never shape a model either). Modelled lamps are never
+    scored: no row of `radiance` belongs to them. `diagnostics
+    ["modelled_lamps"]` records what the final prior holds."""
+    if modelled_per_class < 0:
+        raise ValueError(
+            f"modelled_per_class must be >= 0 (got {modelled_per_class})."
+        )
     radiance = np.asarray(radiance, float)
     row_lamp = np.asarray(row_lamp, int)
     weights = np.asarray(weights, float)
@@ -907,8 +1049,25 @@ def fit_inversion(
     tm = _to_model(np.where(valid, truth, 1.0))
     l2 = np.asarray(lamps.level2, dtype=object)
 
-    def make(prior_set: LampSet, sigma: float) -> Inversion:
+    def modelled(train_idx) -> tuple[LampSet | None, dict]:
+        if modelled_per_class == 0:
+            return None, {"n_per_class": 0, "added": {}}
+        ids = [lamps.ids[i] for i in np.asarray(train_idx, int)]
+        ids += [] if always is None else list(always.ids)
+        mset, info = modelled_lamps(
+            ids,
+            grid,
+            modelled_per_class,
+            classes=modelled_classes,
+            seed=modelled_seed,
+        )
+        if not set(mset.ids).isdisjoint(lamps.ids):  # scored rows are lamps'
+            raise RuntimeError("a modelled lamp id is also a scored lamp's id.")
+        return mset, info
+
+    def make(prior_set: LampSet, sigma: float, extra=None) -> Inversion:
         pset = prior_set if always is None else prior_set + always
+        pset = pset if extra is None else pset + extra
         return build_inversion(pset, weights, conditions, basis, surface_mode, sigma)
 
     def rows_of(lamp_idx):
@@ -934,7 +1093,7 @@ def fit_inversion(
     calib = {s: [] for s in sigma_grid}
     for tr, va in inner:
         rows = rows_of(va)
-        inv = make(lamps.take(tr), sigma_grid[0])
+        inv = make(lamps.take(tr), sigma_grid[0], modelled(tr)[0])
         posts, misfits = inv.posterior(radiance[rows], surf(rows), sigmas=sigma_grid)
         for j, s in enumerate(sigma_grid):
             post, misfit = posts[:, j], misfits[:, j]
@@ -982,7 +1141,8 @@ def fit_inversion(
         if dof >= 1
         else np.inf
     )
-    final = make(lamps.take(train_lamps), best)
+    extra, extra_info = modelled(train_lamps)
+    final = make(lamps.take(train_lamps), best, extra)
     return dataclasses.replace(
         final,
         conformal=conf,
@@ -994,6 +1154,13 @@ def fit_inversion(
             "unexplained_threshold_reduced_chi2": thr,
             "n_prior_lamps": len(final.prior.ids),
             "surface_mode": surface_mode,
+            "modelled_lamps": {
+                **extra_info,
+                "ids": [] if extra is None else list(extra.ids),
+                "calibrated_on": "the measured training lamps of this fit only "
+                "(train_lamps and always; each inner fold's prior: its own "
+                "training lamps and always); never scored",
+            },
         },
     )
 
@@ -1003,7 +1170,8 @@ def fit_inversion(
 
 
 ESTIMATORS = ("inversion", "ridge", "kernel")
-"""Estimators `cross_validate` and `bandopt evaluate` know."""
+"""Estimators `cross_validate` and `bandopt evaluate` know (`cross_validate`
+also "inversion+models": the inversion with modelled lamps in its prior)."""
 
 
 def fit_for_context(
@@ -1015,10 +1183,14 @@ def fit_for_context(
     *,
     surface_mode="unknown",
     sigma_grid: Sequence[float] = SIGMA_REL_GRID,
+    modelled_per_class: int = 0,
+    modelled_classes: Sequence[str] = MODELLED_CLASSES,
+    modelled_seed: int = 0,
 ):
     """`fit_inversion` on a `search.Context`'s scenes for one band set (surface
     knowledge 'unknown' or 'class' — the per-row types come from the context;
-    `sigma_grid` one value: `σ_rel` fixed)."""
+    `sigma_grid` one value: `σ_rel` fixed; `modelled_*`: modelled lamps in the
+    prior, default none, see `fit_inversion`)."""
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
     w = band_weights_on(bands, grid)
@@ -1035,6 +1207,9 @@ def fit_for_context(
         row_surface=row_types if surface_mode == "class" else None,
         always=always,
         sigma_grid=sigma_grid,
+        modelled_per_class=modelled_per_class,
+        modelled_classes=modelled_classes,
+        modelled_seed=modelled_seed,
     )
 
 
@@ -1123,13 +1298,31 @@ def cross_validate(
     surface_modes: Sequence[str] = ("unknown",),
     folds: Sequence[int] | None = None,
     seed: int = 0,
+    modelled_per_class: int = 0,
+    modelled_classes: Sequence[str] = MODELLED_CLASSES,
 ) -> list[dict]:
     """Score estimators on the context's outer folds (lamp-grouped, the same
     folds for every estimator). One record per (estimator, surface mode, outer
     fold, test lamp) with the lamp's mean |error| per metric (CCT in K and in
     mired), interval coverage, level-1 correctness and unexplained rate
     (inversion only) and the number of rows whose estimate left the physical
-    range (must be 0)."""
+    range (must be 0).
+
+    Estimator `"inversion+models"` (only with `modelled_per_class` > 0) is
+    the inversion with `modelled_per_class` modelled lamps per class of
+    `modelled_classes` in its prior, calibrated on each outer fold's (and
+    inner fold's) training lamps only, seed `seed` (`fit_inversion`). Test
+    lamps are measured lamps only, whatever the estimator. With
+    `modelled_per_class` > 0 every record says how many modelled lamps per
+    class its estimator's prior held (`modelled_per_class`: N for
+    "inversion+models", 0 otherwise) and the "inversion+models" records
+    list the classes that got them in that fold (`modelled_classes_added`);
+    with the default 0 the records are as before (no such keys)."""
+    if "inversion+models" in estimators and modelled_per_class < 1:
+        raise ValueError(
+            "estimator 'inversion+models' needs modelled_per_class >= 1 "
+            f"(got {modelled_per_class})."
+        )
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
     rad = ctx.radiance(bands)
@@ -1146,7 +1339,8 @@ def cross_validate(
         rows = np.flatnonzero(np.isin(row_lamp, s.test))
         preds = {}
         for name in estimators:
-            if name == "inversion":
+            if name in ("inversion", "inversion+models"):
+                n_model = modelled_per_class if name == "inversion+models" else 0
                 for mode in surface_modes:
                     si = surf_in[mode]
                     inv = fit_inversion(
@@ -1161,6 +1355,9 @@ def cross_validate(
                         surface_mode=mode,
                         row_surface=si,
                         always=always,
+                        modelled_per_class=n_model,
+                        modelled_classes=modelled_classes,
+                        modelled_seed=seed,
                     )
                     sub = (
                         None
@@ -1171,7 +1368,7 @@ def cross_validate(
                             else [si[i] for i in rows]
                         )
                     )
-                    preds[("inversion", mode)] = (inv.predict(rad[rows], sub), inv)
+                    preds[(name, mode)] = (inv.predict(rad[rows], sub), inv)
             elif name == "ridge":
                 est = fit_estimator(rad, ctx.table, s.train, inner)
                 preds[("ridge", "unknown")] = (np.asarray(est.predict(rad[rows])), None)
@@ -1182,10 +1379,15 @@ def cross_validate(
                     None,
                 )
             else:
-                raise ValueError(f"estimator {name!r}: expected one of {ESTIMATORS}.")
+                raise ValueError(
+                    f"estimator {name!r}: expected one of "
+                    f"{(*ESTIMATORS, 'inversion+models')}."
+                )
         for (name, mode), (p, inv) in preds.items():
             res = p if isinstance(p, InversionResult) else None
             est = res.estimate if res is not None else p
+            if inv is not None:
+                _check_never_scored(inv, [lamps.ids[i] for i in s.test])
             for lamp in s.test:
                 sel = row_lamp[rows] == lamp
                 e = est[sel]
@@ -1227,8 +1429,30 @@ def cross_validate(
                     rec["level2_correct"] = float(np.mean(l2p == lamps.level2[lamp]))
                     rec["unexplained"] = float(np.mean(res.unexplained[sel]))
                     rec["sigma_rel"] = inv.sigma_rel
+                if modelled_per_class > 0:
+                    rec.update(_modelled_fields(inv))
                 out.append(rec)
     return out
+
+
+def _modelled_fields(inv) -> dict:
+    """What a record says about modelled lamps in its estimator's prior."""
+    info = {} if inv is None else inv.diagnostics.get("modelled_lamps", {})
+    n = int(info.get("n_per_class", 0))
+    out = {"modelled_per_class": n}
+    if n:
+        out["modelled_classes_added"] = dict(info["added"])
+    return out
+
+
+def _check_never_scored(inv, test_ids) -> None:
+    """Modelled lamps train, never score: none is a test lamp (a modelled id
+    among the scored ones would be a bug, not a user error)."""
+    modelled = set(inv.diagnostics.get("modelled_lamps", {}).get("ids", ()))
+    if modelled & set(test_ids):
+        raise RuntimeError(
+            f"modelled lamps among the scored lamps: {sorted(modelled & set(test_ids))}"
+        )
 
 
 def _out_of_range(est) -> int:
@@ -1274,7 +1498,10 @@ SUMMARY_COLUMNS = (
 def summarise(records: Sequence[dict], keys=("band_set", "estimator", "surface")):
     """Per group of `keys`: per partition the class-balanced mean over test
     lamps of each `SUMMARY_COLUMNS` value (MAE for the metrics), then mean and
-    SD over partitions; `out_of_range` summed. Records need a `partition`."""
+    SD over partitions; `out_of_range` summed. Records need a `partition`.
+    Records that say `modelled_per_class` pass it on to their group's row
+    (records without it, e.g. those of a run without modelled lamps: no
+    such key)."""
     groups: dict = {}
     for r in records:
         groups.setdefault(tuple(r[k] for k in keys), []).append(r)
@@ -1285,6 +1512,13 @@ def summarise(records: Sequence[dict], keys=("band_set", "estimator", "surface")
         row["partitions"] = len(parts)
         row["lamps_per_partition"] = len(recs) // max(len(parts), 1)
         row["out_of_range"] = int(sum(r["out_of_range"] for r in recs))
+        n_model = {r["modelled_per_class"] for r in recs if "modelled_per_class" in r}
+        if len(n_model) > 1:
+            raise ValueError(
+                f"group {g}: records with different modelled_per_class {n_model}."
+            )
+        if n_model:
+            row["modelled_per_class"] = n_model.pop()
         for col in SUMMARY_COLUMNS:
             per = []
             for p in parts:
@@ -1323,10 +1557,23 @@ def paired_differences(summary_rows, reference: str, against: str):
     return out
 
 
-def leave_one_class_out(ctx, bands, *, surface_mode: str = "unknown", seed: int = 0):
+def leave_one_class_out(
+    ctx,
+    bands,
+    *,
+    surface_mode: str = "unknown",
+    seed: int = 0,
+    modelled_per_class: int = 0,
+    modelled_classes: Sequence[str] = MODELLED_CLASSES,
+):
     """Unseen lamp types: for every scored level-2 class, fit on all other
     classes (inner folds: 2 class-stratified lamp folds of those) and score its
-    lamps. One record per test lamp as `cross_validate` (fold = the class)."""
+    lamps. One record per test lamp as `cross_validate` (fold = the class).
+
+    `modelled_per_class` > 0: modelled lamps in every prior, calibrated on that
+    fit's training lamps only (`fit_inversion`), so the held-out class never
+    gets any (its lamps are not training lamps); the records then say
+    `modelled_per_class` and the classes that got them. Default 0: as before."""
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
     rad = ctx.radiance(bands)
@@ -1353,7 +1600,13 @@ def leave_one_class_out(ctx, bands, *, surface_mode: str = "unknown", seed: int 
             surface_mode=surface_mode,
             row_surface=si,
             always=always,
+            modelled_per_class=modelled_per_class,
+            modelled_classes=modelled_classes,
+            modelled_seed=seed,
         )
+        _check_never_scored(inv, [lamps.ids[i] for i in test])
+        if c in inv.diagnostics["modelled_lamps"]["added"]:
+            raise RuntimeError(f"held-out class {c} got modelled lamps (a leak).")
         rows = np.flatnonzero(np.isin(row_lamp, test))
         sub = (
             None
@@ -1389,5 +1642,7 @@ def leave_one_class_out(ctx, bands, *, surface_mode: str = "unknown", seed: int 
                 rec[f"{name}_covered"] = float(
                     np.mean((iv[:, 0] <= t[m]) & (t[m] <= iv[:, 1]))
                 )
+            if modelled_per_class > 0:
+                rec.update(_modelled_fields(inv))
             out.append(rec)
     return out

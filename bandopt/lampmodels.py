@@ -786,8 +786,16 @@ def model_spectra(
 ) -> np.ndarray:
     """Model spectra (unit visible power) for a batch of z. [nm⁻¹]"""
     family = FAMILIES[family] if isinstance(family, str) else family
-    f = jax.jit(jax.vmap(lambda zz: spectrum(family, zz, jnp.asarray(wavelength_nm))))
-    return np.asarray(f(jnp.asarray(z)))
+    return np.asarray(
+        _batch_spectrum(family)(jnp.asarray(z), jnp.asarray(wavelength_nm))
+    )
+
+
+@functools.cache
+def _batch_spectrum(family: Family):
+    """`spectrum` vmapped over z and jitted, once per family (a fold's
+    sampling calls it per class and fit)."""
+    return jax.jit(jax.vmap(lambda zz, w: spectrum(family, zz, w), in_axes=(0, None)))
 
 
 # --------------------------------------------------------------------------------------
@@ -869,7 +877,7 @@ def sample_library(
                 f"calibrations[{level2!r}] is a calibration of {cal.level2!r}."
             )
         z = sample_z(cal, n_per_class, seed + 7919 * k)
-        spectra = model_spectra(family, z, w)
+        spectra = np.array(model_spectra(family, z, w))  # writable: NIR filled below
         end = cal.model_end_nm
         beyond = w > end
         level1 = LEVEL2_PARENT[level2]

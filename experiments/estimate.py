@@ -8,6 +8,7 @@ the bounded ridge and kernel-ridge baselines — score the held-out measured
 lamps. Then hold out every scored lamp class in turn (unseen types).
 
     python -m experiments.estimate [--partitions 4] [--quick] [--out DIR]
+        [--modelled-per-class N]
 
 Writes `records.jsonl` (one line per test lamp; recomputed from scratch unless
 `--resume`, which keeps finished (partition, band set) units of an interrupted
@@ -16,6 +17,18 @@ run and skips them), `summary.json/.csv`,
 measured lamps only (the NIR extension of lamps ending at 780 nm is modelled:
 `bandopt.datasets.nir`; counts in the manifest); scoring uses measured lamps
 only.
+
+`--modelled-per-class N` (default 0: none, and every output exactly as
+without the option) adds rows with estimator `inversion+models`: the
+inversion, recommended bands, surface unknown, on the same partitions and
+folds, with N modelled lamps per rare class (`bandopt.inversion.
+MODELLED_CLASSES`) in its prior, calibrated on each fit's measured training
+lamps only (`bandopt.inversion.fit_inversion`), and the same for the
+unseen-types study (`unseen_types.json` entry `recommended+models`). Test
+lamps stay measured lamps only. Every record of such a run, the summary
+rows, the README section and the manifest say `modelled_per_class`. The
+first use fits the models to their measured lamps: 6-11 min per process
+on a busy 2-core machine (`bandopt.inversion.modelled_lamps`).
 """
 
 import argparse
@@ -29,6 +42,8 @@ import numpy as np
 
 
 DEFAULT_BAND_SETS = ("recommended", "sdgsat-1", "nightsat", "viirs-dnb")
+MODELS = "inversion+models"
+"""Estimator label of the inversion with modelled lamps in its prior."""
 FULL_SURFACE_SETS = ("recommended", "sdgsat-1")
 RECOMMENDED = Path("results/search/recommended_bands.json")
 
@@ -68,12 +83,25 @@ def main(argv=None) -> int:
         "(default: start afresh)",
     )
     ap.add_argument(
+        "--modelled-per-class",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also score the inversion with N modelled lamps per rare class in "
+        "its prior (estimator 'inversion+models'; recommended bands, surface "
+        "unknown, and in the unseen-types study), models calibrated on each "
+        "fit's training lamps only, scored on measured lamps only (default 0: "
+        "no modelled lamps, no such rows)",
+    )
+    ap.add_argument(
         "--summarise-only",
         action="store_true",
         help="recompute summaries, figures, the README section and the "
         "recommendation.json part from records.jsonl / unseen_types.json",
     )
     args = ap.parse_args(argv)
+    if args.modelled_per_class < 0:
+        ap.error("--modelled-per-class must be >= 0.")
 
     from bandopt._config import configure
 
@@ -102,6 +130,15 @@ def main(argv=None) -> int:
                 continue
             records.append(r)
             done.add((r["partition"], r["band_set"]))
+    n_model = args.modelled_per_class
+    if args.summarise_only:
+        n_model = modelled_per_class_of(records)
+    elif records and modelled_per_class_of(records) != n_model:
+        raise SystemExit(
+            f"{rec_path}: records of a run with --modelled-per-class "
+            f"{modelled_per_class_of(records)}, not {n_model}; start afresh "
+            "(without --resume) or give the same option."
+        )
     units = [(p, b) for p in range(parts) for b in args.band_sets]
     if args.summarise_only:
         units = []
@@ -124,6 +161,18 @@ def main(argv=None) -> int:
         recs = inv_mod.cross_validate(
             ctx, bands, estimators=ests, surface_modes=modes, seed=p
         )
+        if n_model:
+            for r in recs:
+                r["modelled_per_class"] = 0
+            if name == "recommended":
+                recs += inv_mod.cross_validate(
+                    ctx,
+                    bands,
+                    estimators=(MODELS,),
+                    surface_modes=("unknown",),
+                    seed=p,
+                    modelled_per_class=n_model,
+                )
         for r in recs:
             r.update(partition=p, band_set=name)
         with rec_path.open("a") as fh:
@@ -163,6 +212,19 @@ def main(argv=None) -> int:
                 "by_class": _by_class(recs),
                 "overall": _overall(recs),
             }
+            if n_model:
+                unseen[name]["modelled_per_class"] = 0
+        if n_model and "recommended" in args.band_sets:
+            log("unseen types: recommended, inversion with modelled lamps")
+            recs = inv_mod.leave_one_class_out(
+                ctx, band_set("recommended"), modelled_per_class=n_model
+            )
+            unseen["recommended+models"] = {
+                "records": recs,
+                "by_class": _by_class(recs),
+                "overall": _overall(recs),
+                "modelled_per_class": n_model,
+            }
         (out / "unseen_types.json").write_text(json.dumps(unseen, indent=2) + "\n")
     _figures(summary, unseen, out, preset)
     if "recommended" in args.band_sets:
@@ -182,26 +244,48 @@ def main(argv=None) -> int:
     computed_at = None
     if args.summarise_only and (out / "manifest.json").is_file():
         computed_at = json.loads((out / "manifest.json").read_text()).get("git_commit")
-    write_manifest(
-        out,
-        seed=0,
-        config={
-            "preset": preset,
-            "partitions": parts,
-            "band_sets": args.band_sets,
-            "quick": args.quick,
-            "scored_lamps": "measured lamps only",
-            "training_lamps": "measured lamps only (no modelled lamp spectra); spectra "
-            "ending at 780 nm carry the modelled NIR extension of bandopt.datasets.nir",
-            "intervals": "posterior 5-95 % range widened by split-conformal factors "
-            "calibrated on the inner folds' held-out lamps (class-balanced)",
-            "unexplained": "reduced chi2 above the 99th percentile of the inner "
-            "held-out lamps",
-            "records_computed_at_commit": computed_at,
-        },
-    )
+    config = {
+        "preset": preset,
+        "partitions": parts,
+        "band_sets": args.band_sets,
+        "quick": args.quick,
+        "scored_lamps": "measured lamps only",
+        "training_lamps": "measured lamps only (no modelled lamp spectra); spectra "
+        "ending at 780 nm carry the modelled NIR extension of bandopt.datasets.nir",
+        "intervals": "posterior 5-95 % range widened by split-conformal factors "
+        "calibrated on the inner folds' held-out lamps (class-balanced)",
+        "unexplained": "reduced chi2 above the 99th percentile of the inner "
+        "held-out lamps",
+        "records_computed_at_commit": computed_at,
+    }
+    if n_model:
+        config.update(modelled_lamps_config(n_model))
+    write_manifest(out, seed=0, config=config)
     log(f"done: {out}")
     return 0
+
+
+def modelled_per_class_of(records) -> int:
+    """Modelled lamps per class of a run's `inversion+models` rows (0: a run
+    without them, e.g. every record written before the option existed)."""
+    return max((int(r.get("modelled_per_class", 0)) for r in records), default=0)
+
+
+def modelled_lamps_config(n_model: int) -> dict:
+    """What the manifest says of a run with modelled lamps."""
+    from bandopt.inversion import MIN_CALIBRATION_LAMPS, MODELLED_CLASSES
+
+    return {
+        "training_lamps": "measured lamps (spectra ending at 780 nm carry the "
+        "modelled NIR extension of bandopt.datasets.nir); estimator "
+        f"'{MODELS}' (recommended bands, surface unknown, and the unseen-types "
+        f"entry 'recommended+models') also {n_model} modelled lamps per class of "
+        f"{list(MODELLED_CLASSES)} with >= {MIN_CALIBRATION_LAMPS} measured "
+        "training lamps (bandopt.lampmodels), calibrated on each fit's measured "
+        "training lamps only",
+        "modelled_per_class": n_model,
+        "modelled_classes": list(MODELLED_CLASSES),
+    }
 
 
 TYPICAL = (
@@ -271,9 +355,12 @@ def _coverage(summary, unseen) -> dict:
     90 % interval), held-out lamps per band set / surface, and unseen types."""
     out = {"nominal_coverage": 0.9, "held_out_lamps": {}, "unseen_types": {}}
     for r in summary:
-        if r["estimator"] != "inversion":
+        if r["estimator"] not in ("inversion", MODELS):
             continue
-        out["held_out_lamps"][f"{r['band_set']}/{r['surface']}"] = {
+        key = f"{r['band_set']}/{r['surface']}"
+        if r["estimator"] == MODELS:
+            key += f"/{MODELS}"
+        out["held_out_lamps"][key] = {
             f"{m}_coverage": r.get(f"{m}_covered") for m in ("LER", "G", "CCT")
         }
     for name, u in (unseen or {}).items():
@@ -301,8 +388,9 @@ def readme_text(summary, paired, unseen) -> str:
         f"{summary[0]['partitions'] if summary else 0} lamp partitions; CCT in K "
         "(a null CCT counts as 25000 K) and mired. Inversion: surface unknown / "
         "class known / measured by Sentinel-2. Coverage: fraction of true values "
-        "inside the 90 % intervals. Training and scoring use measured lamps only "
-        "(no modelled lamp spectra). Generated by `python -m experiments.estimate "
+        "inside the 90 % intervals. "
+        + _training_sentence(summary)
+        + " Generated by `python -m experiments.estimate "
         "--summarise-only` from `summary.json`.",
         "",
         "| band set | estimator | surface | LER [lm/W] | G | CCT [K] | CCT [mired] "
@@ -342,9 +430,17 @@ def readme_text(summary, paired, unseen) -> str:
             )
     for name, u in (unseen or {}).items():
         o = u["overall"]
+        n_u = u.get("modelled_per_class", 0)
+        est_u = (
+            f"{MODELS}, {n_u} modelled lamps per class calibrated on the training "
+            "classes only"
+            if n_u
+            else "inversion"
+        )
         lines += [
             "",
-            f"Unseen lamp types ({name}, inversion, surface unknown; each scored "
+            f"Unseen lamp types ({name.removesuffix('+models')}, {est_u}, surface "
+            "unknown; each scored "
             "class held out in turn, its lamps scored by a model that never saw "
             f"the class): coverage LER {o['LER_covered']:.2f}, G "
             f"{o['G_covered']:.2f}, CCT {o['CCT_covered']:.2f}; level-1 type right "
@@ -354,6 +450,25 @@ def readme_text(summary, paired, unseen) -> str:
             f"{o['out_of_range']}. Per class: `unseen_types.json`.",
         ]
     return "\n".join(lines) + "\n"
+
+
+def _training_sentence(summary) -> str:
+    """Which lamps trained which rows (scoring: measured lamps only)."""
+    n = max((r.get("modelled_per_class", 0) for r in summary), default=0)
+    if not n:
+        return (
+            "Training and scoring use measured lamps only (no modelled lamp spectra)."
+        )
+    from bandopt.inversion import MIN_CALIBRATION_LAMPS, MODELLED_CLASSES
+
+    return (
+        "Scoring uses measured lamps only. Rows "
+        f"`{MODELS}` also train on {n} modelled lamps per class of "
+        f"{', '.join(MODELLED_CLASSES)} (physical lamp models, `bandopt.lampmodels`; "
+        f"classes with >= {MIN_CALIBRATION_LAMPS} measured training lamps), "
+        "calibrated on each fit's measured training lamps only; every other row "
+        "trains on measured lamps only (no modelled lamp spectra)."
+    )
 
 
 def _recommendation(summary, coverage) -> dict:
@@ -374,6 +489,10 @@ def _recommendation(summary, coverage) -> dict:
         }
         for r in summary
     }
+    for r in summary:  # runs with modelled lamps say so per row
+        if "modelled_per_class" in r:
+            key = f"{r['band_set']}/{r['estimator']}/{r['surface']}"
+            rows[key]["modelled_per_class"] = r["modelled_per_class"]
     return {
         "estimator": "inversion (bandopt.inversion), surface unknown, is the default "
         "of bandopt evaluate",
@@ -442,11 +561,7 @@ def _figures(summary, unseen, out, preset):
         v = [r.get(m, np.nan) for r in summary]
         e = [r.get(f"{m}_sd") or 0.0 for r in summary]
         colours = [
-            "C0"
-            if r["estimator"] == "inversion"
-            else "C1"
-            if r["estimator"] == "ridge"
-            else "C2"
+            {"inversion": "C0", "ridge": "C1", MODELS: "C3"}.get(r["estimator"], "C2")
             for r in summary
         ]
         ax.bar(x, v, yerr=e, color=colours, capsize=2)
@@ -456,12 +571,14 @@ def _figures(summary, unseen, out, preset):
     fig.suptitle(
         f"Held-out measured lamps (preset {preset}); "
         "blue inversion, orange ridge, green kernel"
+        + (f", red {MODELS} (modelled lamps in the prior)" if MODELS in {
+            r["estimator"] for r in summary} else "")
     )
     fig.tight_layout()
     fig.savefig(out / "errors.png", dpi=90)
     plt.close(fig)
 
-    inv_rows = [r for r in summary if r["estimator"] == "inversion"]
+    inv_rows = [r for r in summary if r["estimator"] in ("inversion", MODELS)]
     fig, ax = plt.subplots(figsize=(8, 4.5))
     w = 0.25
     xx = np.arange(len(inv_rows))
@@ -476,7 +593,11 @@ def _figures(summary, unseen, out, preset):
     ax.axhline(0.8, color="r", ls=":", lw=1, label="goal >= 80 %")
     ax.set_xticks(
         xx,
-        [f"{r['band_set']}/{r['surface']}" for r in inv_rows],
+        [
+            f"{r['band_set']}/{r['surface']}"
+            + ("/+models" if r["estimator"] == MODELS else "")
+            for r in inv_rows
+        ],
         rotation=45,
         ha="right",
         fontsize=7,
@@ -490,12 +611,13 @@ def _figures(summary, unseen, out, preset):
     plt.close(fig)
     if unseen:
         fig, ax = plt.subplots(figsize=(9, 4.5))
+        width = 0.8 / len(unseen)
         for j, (name, u) in enumerate(unseen.items()):
             cls = list(u["by_class"])
             ax.bar(
-                np.arange(len(cls)) + (j - 0.5) * 0.4,
+                np.arange(len(cls)) + (j - (len(unseen) - 1) / 2) * width,
                 [u["by_class"][c]["level1_correct"] for c in cls],
-                0.4,
+                width,
                 label=name,
             )
             ax.set_xticks(np.arange(len(cls)), cls, rotation=45, ha="right", fontsize=7)

@@ -193,3 +193,39 @@ def test_calibration_uses_only_the_training_lamps():
     ]
     cal = lm.calibrate("led_amber", [amber[0], "nist_traditional_hps"])
     assert cal.lamps == (amber[0],)
+
+
+@pytest.mark.parametrize("extend", [True, False])
+def test_samples_of_lamps_measured_to_780_nm_stop_there(extend):
+    """Calibration lamps that all stop at 780 nm (the NIST mercury lamps): the
+    samples beyond 780 nm are the library's NIR extension or NaN, as for a
+    measured lamp of that range (this path wrote into a read-only array)."""
+    f = lm.MERCURY
+    rng = np.random.default_rng(5)
+    z0 = f.z_init()
+    fits = {
+        f"l{i}": lm.Fit(
+            "mercury",
+            z0 + rng.normal(0, 0.1, z0.size),
+            {},
+            z0,
+            z0,
+            z0,
+            0.0,
+            False,
+            5,
+            True,
+        )
+        for i in range(3)
+    }
+    cal = lm.calibrate_fits("mercury", fits, dict.fromkeys(fits, 780.0))
+    out = lm.sample_library(
+        ["mercury"], 2, seed=1, calibrations={"mercury": cal}, extend_nir=extend
+    )
+    w = out.wavelength_nm
+    beyond = w > 780.0
+    assert np.all(np.isfinite(out.values[:, ~beyond]))
+    assert np.all(np.isfinite(out.values[:, beyond])) == extend
+    assert np.all(np.isnan(out.values[:, beyond])) == (not extend)
+    assert all(r.extended == extend for r in out.records)
+    assert all(r.measured_range_nm == (380.0, 780.0) for r in out.records)

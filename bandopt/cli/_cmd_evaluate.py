@@ -59,6 +59,18 @@ def register(subparsers):
         "training range, with split-conformal 90 %% intervals",
     )
     p.add_argument(
+        "--modelled-per-class",
+        type=int,
+        default=0,
+        metavar="N",
+        help="inversion only: also put N modelled lamps per rare class (lps, "
+        "mercury, led_amber, metal_halide, hps; physical lamp models of "
+        "bandopt.lampmodels calibrated on the measured training lamps of each "
+        "fit only) into the prior; they train, never score. Default 0: measured "
+        "lamps only. The first use fits the models to their measured lamps "
+        "(several minutes); the JSON says modelled_lamps_used",
+    )
+    p.add_argument(
         "--surface",
         metavar="NAME|FILE",
         default=None,
@@ -221,12 +233,21 @@ def _fit(args, ctx, bands, mode):
             surface_mode=mode,
             row_surface=row_surface,
             always=always,
+            modelled_per_class=args.modelled_per_class,
         )
+        added = inv.diagnostics["modelled_lamps"]["added"]
+        n_model = sum(added.values())
+        prior = f"{len(inv.prior.ids) - n_model} measured library lamps"
+        if n_model:
+            prior += (
+                f" and {n_model} modelled lamps ({args.modelled_per_class} per class "
+                f"of {', '.join(added)}; bandopt.lampmodels calibrated on the "
+                "training lamps of each fit only)"
+            )
         desc = (
-            "physics-based inversion (bandopt.inversion), prior over "
-            f"{len(inv.prior.ids)} measured library lamps, surface {mode}; "
-            f"sigma_rel {inv.sigma_rel:g}, 90 % intervals split-conformal on "
-            "lamp-grouped folds"
+            f"physics-based inversion (bandopt.inversion), prior over {prior}, "
+            f"surface {mode}; sigma_rel {inv.sigma_rel:g}, 90 % intervals "
+            "split-conformal on lamp-grouped folds"
         )
         return inv, basis, desc
     fit = fit_estimator if args.estimator == "ridge" else fit_kernel_estimator
@@ -315,6 +336,15 @@ def run(args) -> int:
     from ._checks import band_set_warnings
     from ._cmd_bands import _load
 
+    if args.modelled_per_class < 0:
+        raise ValueError(
+            f"--modelled-per-class {args.modelled_per_class}: must be >= 0."
+        )
+    if args.modelled_per_class and args.estimator != "inversion":
+        raise ValueError(
+            "--modelled-per-class: modelled lamps go into the prior of "
+            f"--estimator inversion only (got --estimator {args.estimator})."
+        )
     bands, entry = _load(args.bands)
     name = entry.key if entry is not None else bands.name
     warnings = band_set_warnings(bands, args.bands, log=sys.stderr)
@@ -392,6 +422,7 @@ def run(args) -> int:
         "lamps": rows,
         "notes": notes,
         "warnings": warnings,
+        "modelled_lamps_used": args.modelled_per_class,
     }
     if args.plot:
         _plot(rows, name, args.estimator, args.plot)
