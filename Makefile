@@ -68,8 +68,8 @@ compare: $(STAMP)
 noise-aware: $(STAMP)
 	$(BIN)/python -m experiments.noise_aware
 
-estimate: $(STAMP)  ## inversion vs regression on held-out and unseen lamps (writes recommendation.json "estimation")
-	$(BIN)/python -m experiments.estimate
+estimate: $(STAMP)  ## inversion vs regression on held-out and unseen lamps, and the inversion with 5 modelled lamps per rare class in its prior (writes recommendation.json "estimation")
+	$(BIN)/python -m experiments.estimate --modelled-per-class 5
 
 classify: $(STAMP)  ## lamp-type classification (writes recommendation.json "classification")
 	$(BIN)/python -m experiments.classify
