@@ -31,6 +31,7 @@ supports (response >= `tail` of each band's peak) before contracting.
 """
 
 import dataclasses
+from collections.abc import Sequence
 
 import jax
 import jax.numpy as jnp
@@ -218,18 +219,40 @@ def dense_spectra(scen: ScenarioSet) -> Float[Array, "l s a m c w"]:
     return lamp_scenes(band_terms(f, eye))
 
 
-def scenario_table(scen: ScenarioSet) -> ScenarioTable:
+def scenario_table(
+    scen: ScenarioSet,
+    *,
+    level1: Sequence[str] | None = None,
+    level2: Sequence[str] | None = None,
+) -> ScenarioTable:
     """All lamp scenes of `scen` as rows (C order over lamp, surface,
-    atmosphere, Moon, class). Lamps must be library ids."""
+    atmosphere, Moon, class). Lamps must be library ids, unless their types
+    are given per lamp in `level1` and `level2` (lamps outside the library,
+    e.g. modelled ones: `ScenarioSet.with_lamps`)."""
     toa = np.asarray(dense_spectra(scen))
     shape = toa.shape[:-1]
     idx = np.indices(shape).reshape(len(shape), -1)
-    rec = {r.id: r for r in library().records}
-    missing = [i for i in scen.lamp_ids if i not in rec]
-    if missing:
-        raise ValueError(f"Lamps {missing[:5]} are not in the library (no typology).")
-    lvl1 = np.asarray([rec[i].level1 for i in scen.lamp_ids], dtype=object)
-    lvl2 = np.asarray([rec[i].level2 for i in scen.lamp_ids], dtype=object)
+    if (level1 is None) != (level2 is None):
+        raise ValueError("scenario_table: give both level1 and level2, or neither.")
+    if level1 is not None:
+        n = len(scen.lamp_ids)
+        if len(level1) != n or len(level2) != n:
+            raise ValueError(
+                f"scenario_table: {n} lamps but {len(level1)} level-1 and "
+                f"{len(level2)} level-2 labels."
+            )
+        lvl1 = np.asarray(level1, dtype=object)
+        lvl2 = np.asarray(level2, dtype=object)
+    else:
+        rec = {r.id: r for r in library().records}
+        missing = [i for i in scen.lamp_ids if i not in rec]
+        if missing:
+            raise ValueError(
+                f"Lamps {missing[:5]} are not in the library (no typology): "
+                "give level1 and level2."
+            )
+        lvl1 = np.asarray([rec[i].level1 for i in scen.lamp_ids], dtype=object)
+        lvl2 = np.asarray([rec[i].level2 for i in scen.lamp_ids], dtype=object)
 
     def lab(labels, axis):
         return np.asarray(labels, dtype=object)[idx[axis]]

@@ -590,6 +590,30 @@ class ScenarioSet:
     def n_lamp_scenes(self) -> int:
         return int(np.prod(self.shape))
 
+    def with_lamps(self, lamp_ids: Sequence[str], spectra) -> "ScenarioSet":
+        """The same scenes lit by other lamps: `spectra` `(l, w)` on this set's
+        grid, normalised like the library (one lumen: `683 ∫ V S dλ = 1`,
+        [W nm⁻¹ lm⁻¹]), named `lamp_ids`. For lamps outside the library, e.g.
+        modelled spectra (`bandopt.lampmodels`); the rest of the scene is
+        unchanged."""
+        f = self.factors
+        s = np.asarray(spectra, float)
+        ids = tuple(lamp_ids)
+        w = np.asarray(f.wavelength_nm).size
+        if s.ndim != 2 or s.shape != (len(ids), w):
+            raise ValueError(
+                f"spectra: expected shape ({len(ids)}, {w}) (lamps x grid), "
+                f"got {s.shape}."
+            )
+        if not np.all(np.isfinite(s)):
+            bad = [ids[i] for i in np.flatnonzero(~np.isfinite(s).all(axis=1))]
+            raise ValueError(f"spectra of lamps {bad[:5]} are not finite.")
+        return dataclasses.replace(
+            self,
+            factors=dataclasses.replace(f, lamp=jnp.asarray(s, f.lamp.dtype)),
+            lamp_ids=ids,
+        )
+
     def subset_lamps(self, index: slice | Sequence[int]) -> "ScenarioSet":
         """The same set restricted to some lamps (a slice or index list)."""
         idx = np.arange(len(self.lamp_ids))[index]

@@ -258,3 +258,43 @@ def test_band_radiance_inputs(scen, bands):
         band_radiance(toa, bands, wavelength_nm=wl, noise=np.zeros((2, 3)))
     with pytest.raises(ValueError, match="response array"):
         band_radiance(toa, np.ones((3, 5)), wavelength_nm=wl)
+
+
+def test_scenes_lit_by_lamps_outside_the_library(scen):
+    """`ScenarioSet.with_lamps` + `scenario_table(level1=, level2=)`: the same
+    spectra under other names give the same rows; a spectrum twice as bright
+    gives a lamp term twice as large (the scene is linear in the lamp); bad
+    shapes and missing labels are refused with the reason."""
+    from bandopt.forward import scenario_table
+
+    base = scenario_table(scen)
+    spec = np.asarray(scen.factors.lamp)
+    names = [f"model_{i}" for i in range(spec.shape[0])]
+    twin = scenario_table(
+        scen.with_lamps(names, spec),
+        level1=list(base.level1),
+        level2=list(base.level2),
+    )
+    np.testing.assert_array_equal(twin.toa, base.toa)
+    assert twin.lamp_ids == tuple(names)
+    np.testing.assert_array_equal(twin.labels(2), base.labels(2))
+    dark = scenario_table(
+        scen.with_lamps(names, 0 * spec), level1=list(base.level1),
+        level2=list(base.level2),
+    )  # fmt: skip
+    bright = scenario_table(
+        scen.with_lamps(names, 2 * spec), level1=list(base.level1),
+        level2=list(base.level2),
+    )  # fmt: skip
+    np.testing.assert_allclose(
+        bright.toa - dark.toa, 2 * (base.toa - dark.toa), rtol=1e-9, atol=1e-15
+    )
+    assert np.any(base.toa - dark.toa > 0)
+    with pytest.raises(ValueError, match="expected shape"):
+        scen.with_lamps(names[:1], spec)
+    with pytest.raises(ValueError, match="not finite"):
+        scen.with_lamps(names, np.where(np.arange(spec.shape[1]) == 3, np.nan, spec))
+    with pytest.raises(ValueError, match="not in the library"):
+        scenario_table(scen.with_lamps(names, spec))
+    with pytest.raises(ValueError, match="both level1 and level2"):
+        scenario_table(scen.with_lamps(names, spec), level1=list(base.level1))
