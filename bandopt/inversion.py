@@ -78,12 +78,13 @@ from .estimate import (
     CCT_RANGE_K,
     METRICS,
     MIRED,
+    LampTable,
     fit_estimator,
     fit_kernel_estimator,
     lamp_truth,
 )
 from .folds import class_balanced_weights, stratified_lamp_folds
-from .forward import band_weights_on as forward_band_weights
+from .forward import band_weights_on as forward_band_weights, dense_spectra
 from .photometry import G_CAP, K_M_LM_PER_W
 from .scene import build_scenarios
 
@@ -484,6 +485,35 @@ def _score_chunk_shared(y, p, qq, log_ps, log_pk, sigmas):
     return jnp.moveaxis(lk, 0, 1), jnp.moveaxis(chi, 0, 1)
 
 
+def log_evidence(log_norm, y, sigmas) -> np.ndarray:
+    """Log marginal likelihood of each pixel's band radiances `y (n, b)`,
+    normalised by their mean |y|, under the prior, per `σ_rel` in `sigmas`:
+    `log Σ_k π_k Σ_s π_s exp(-χ²/2)` (`log_norm (n, S)`, what the scores
+    sum) plus the Gaussian normalisers `-Σ_b log sd_b - b/2 log 2π` that
+    depend on σ (`sd_b = σ |y_b| + SIGMA_FLOOR`). The lamp amplitude and Moon
+    term are profiled (fitted), so this is a profile evidence; it compares
+    `σ_rel` values on the same pixels, not models with other amplitudes.
+    (n, S)."""
+    y = np.atleast_2d(np.asarray(y, float))
+    m = np.mean(np.abs(y), axis=1, keepdims=True)
+    yn = np.abs(y / np.where(m > 0, m, 1.0))
+    sig = np.asarray(sigmas, float)
+    sd = sig[None, :, None] * yn[:, None, :] + SIGMA_FLOOR  # (n, S, b)
+    b = y.shape[1]
+    return np.asarray(log_norm) - np.log(sd).sum(axis=-1) - 0.5 * b * math.log(
+        2 * math.pi
+    )
+
+
+SIGMA_RULES = ("error", "evidence")
+"""How `fit_inversion` chooses `σ_rel` on its inner folds: `"error"` (the
+class-balanced metric error of the held-out inner lamps, normalised per
+metric: the target itself, but noisy with few lamps per class) or
+`"evidence"` (the class-balanced mean log marginal likelihood of their
+pixels, `log_evidence`: a proper score over every pixel and band, so a
+steadier choice, but of the band-noise model, not of the metric error)."""
+
+
 SHARED_CHUNK = 256
 """Pixels per compiled call when the surface candidates are shared (bounds
 the `(n, k s a)` temporaries to ~30 MB each for a 224-lamp prior)."""
@@ -860,17 +890,23 @@ class Inversion:
         'class'), or basis coefficients (n, r) (mode 'measured')."""
         return surface_candidates(self.basis, self.surface_mode, n, surface)
 
-    def posterior(self, radiance, surface=None, sigmas=None):
+    def posterior(self, radiance, surface=None, sigmas=None, *, evidence=False):
         """Posterior over prior lamps (n, k) and reduced χ² (n,); with `sigmas`
-        (S,) one of each per `σ_rel`: (n, S, k), (n, S)."""
+        (S,) one of each per `σ_rel`: (n, S, k), (n, S). With `evidence`, also
+        the log marginal likelihood of each pixel's mean-normalised band
+        radiances under the prior, (n,) or (n, S) (`log_evidence`)."""
         y = np.atleast_2d(np.asarray(radiance, float))
         cand, lps = self.candidates(y.shape[0], surface)
         a, q = self.design
         sig = [self.sigma_rel] if sigmas is None else list(sigmas)
         lk, chi = _score(y, cand, lps, a, q, self.prior.log_prior, sig)
-        post = np.exp(lk - logsumexp(lk, axis=-1, keepdims=True))
+        norm = logsumexp(lk, axis=-1, keepdims=True)
+        post = np.exp(lk - norm)
         red = chi / max(self._dof(), 1)
-        return (post[:, 0], red[:, 0]) if sigmas is None else (post, red)
+        out = (post, red)
+        if evidence:
+            out += (log_evidence(norm[..., 0], y, sig),)
+        return tuple(x[:, 0] for x in out) if sigmas is None else out
 
     def reconstruct(self, radiance, surface=None) -> np.ndarray:
         """Posterior-mean lamp spectrum per lumen, (n, w) [W nm⁻¹ lm⁻¹]."""
@@ -1017,6 +1053,7 @@ def fit_inversion(
     modelled_per_class: int = 0,
     modelled_classes: Sequence[str] = MODELLED_CLASSES,
     modelled_seed: int = 0,
+    sigma_rule: str = "error",
 ) -> Inversion:
     """Fit an inversion on `train_lamps` (indices into `lamps`).
 
@@ -1035,7 +1072,15 @@ def fit_inversion(
     (so the inner validation lamps that set `σ_rel`, the conformal factors
     and the threshold never shape a model either). Modelled lamps are never
     scored: no row of `radiance` belongs to them. `diagnostics
-    ["modelled_lamps"]` records what the final prior holds."""
+    ["modelled_lamps"]` records what the final prior holds.
+
+    `sigma_rule` (`SIGMA_RULES`): how `σ_rel` is chosen on the inner folds,
+    by held-out metric error (default) or by held-out log evidence;
+    `diagnostics` holds both criteria per candidate."""
+    if sigma_rule not in SIGMA_RULES:
+        raise ValueError(
+            f"sigma_rule {sigma_rule!r}: expected one of {SIGMA_RULES}."
+        )
     if modelled_per_class < 0:
         raise ValueError(
             f"modelled_per_class must be >= 0 (got {modelled_per_class})."
@@ -1090,16 +1135,20 @@ def fit_inversion(
         ]
     )
     scores = {s: [] for s in sigma_grid}
+    evid = {s: [] for s in sigma_grid}
     calib = {s: [] for s in sigma_grid}
     for tr, va in inner:
         rows = rows_of(va)
         inv = make(lamps.take(tr), sigma_grid[0], modelled(tr)[0])
-        posts, misfits = inv.posterior(radiance[rows], surf(rows), sigmas=sigma_grid)
+        posts, misfits, lev = inv.posterior(
+            radiance[rows], surf(rows), sigmas=sigma_grid, evidence=True
+        )
+        w = class_balanced_weights(l2[va])
+        rl = row_lamp[rows]
         for j, s in enumerate(sigma_grid):
             post, misfit = posts[:, j], misfits[:, j]
             mean, rng, _ = _posterior_metrics(post, inv.prior)
-            err = _lamp_errors(mean, tm, valid, row_lamp[rows], va)
-            w = class_balanced_weights(l2[va])
+            err = _lamp_errors(mean, tm, valid, rl, va)
             score = 0.0
             for m in range(3):
                 ok = ~np.isnan(err[:, m])
@@ -1107,8 +1156,14 @@ def fit_inversion(
                     np.sum(w[ok] * err[ok, m]) / max(w[ok].sum(), 1e-300) / spread[m]
                 )
             scores[s].append(score)
+            # class-balanced mean over lamps of each lamp's mean log evidence
+            per_lamp = np.array([lev[rl == lamp, j].mean() for lamp in va])
+            evid[s].append(float(np.sum(w * per_lamp) / max(w.sum(), 1e-300)))
             calib[s].append((rows, mean, rng, misfit, va))
-    best = min(sigma_grid, key=lambda s: float(np.mean(scores[s])))
+    if sigma_rule == "error":
+        best = min(sigma_grid, key=lambda s: float(np.mean(scores[s])))
+    else:
+        best = max(sigma_grid, key=lambda s: float(np.mean(evid[s])))
     # conformal factors and reject threshold from the held-out inner lamps
     s_all, w_all, mis_all = [], [], []
     for rows, _mean, rng, misfit, va in calib[best]:
@@ -1149,7 +1204,11 @@ def fit_inversion(
         threshold=thr,
         diagnostics={
             "sigma_rel": best,
+            "sigma_rule": sigma_rule,
             "inner_scores": {str(s): float(np.mean(v)) for s, v in scores.items()},
+            "inner_log_evidence": {
+                str(s): float(np.mean(v)) for s, v in evid.items()
+            },
             "conformal_factor": dict(zip(METRICS, conf.tolist(), strict=True)),
             "unexplained_threshold_reduced_chi2": thr,
             "n_prior_lamps": len(final.prior.ids),
@@ -1171,7 +1230,119 @@ def fit_inversion(
 
 ESTIMATORS = ("inversion", "ridge", "kernel")
 """Estimators `cross_validate` and `bandopt evaluate` know (`cross_validate`
-also "inversion+models": the inversion with modelled lamps in its prior)."""
+also `MODELLED_ESTIMATORS`)."""
+
+MODELLED_ESTIMATORS = ("inversion+models", "ridge+models", "kernel+models")
+"""`cross_validate` estimators that train on modelled lamps too: the inversion
+with them in its prior, the ridge and kernel ridge with their scenes among
+the training rows (`augment_with_modelled`)."""
+
+EVIDENCE_ESTIMATOR = "inversion-evidence"
+"""`cross_validate` estimator: the inversion with `σ_rel` chosen by held-out
+log evidence (`fit_inversion(sigma_rule="evidence")`) instead of metric error."""
+
+MODEL_NOISE_SEED_OFFSET = 15485863
+"""Noise seed offset of modelled lamps' rows (a prime): with photon noise,
+their draws never share a seed with the measured rows' draws."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Augmented:
+    """Training data of a learned estimator with modelled lamps added
+    (`augment_with_modelled`): `radiance` (N + M, b) and `table` (measured
+    rows and lamps first, unchanged, then the modelled ones), `train` the
+    outer training lamps plus the modelled lamps calibrated on them, `inner`
+    the inner (train, validation) splits, each train plus the modelled lamps
+    calibrated on that inner training set (validation: measured lamps only),
+    and `info` what was added (`modelled_per_class`,
+    `modelled_classes_added`: level-2 class -> lamps of the outer set)."""
+
+    radiance: np.ndarray
+    table: LampTable
+    train: np.ndarray
+    inner: list
+    info: dict
+
+
+def augment_with_modelled(
+    ctx,
+    bands,
+    radiance,
+    train,
+    inner,
+    n_per_class: int,
+    *,
+    classes: Sequence[str] = MODELLED_CLASSES,
+    seed: int = 0,
+) -> Augmented:
+    """Add modelled lamps to a learned estimator's training data (issue 11 b).
+
+    For the outer training lamps `train` and for each inner split's training
+    lamps, `n_per_class` modelled lamps per class of `classes`
+    (`modelled_lamps`: calibrated on those measured lamps plus the
+    never-scored `always` lamps, nothing else), lit by every scene of the
+    context (`ScenarioSet.with_lamps`, same atmospheres, surfaces, Moon and
+    classes) and measured with the same band set and noise rule
+    (`Context.radiance_of`, own noise seeds). Each model set trains only the
+    fit it was calibrated for; no modelled lamp is ever a validation or test
+    lamp. `radiance` is `ctx.radiance(bands)` (the measured rows)."""
+    lamps, always, _, _ = context_setup(ctx)
+    scen = context_scenarios(ctx)
+    grid = ctx.wavelength_nm
+    base = ctx.table
+    q = ctx.toa.shape[1]
+    n0 = base.n_lamps
+    rads, lamp_of = [np.asarray(radiance, float)], [np.asarray(base.lamp_of)]
+    cls, truth, valid = [base.classes], [base.truth], [base.valid]
+    added_info = {}
+
+    def add(train_idx, j: int) -> np.ndarray:
+        ids = [lamps.ids[i] for i in np.asarray(train_idx, int)] + list(always.ids)
+        mset, info = modelled_lamps(ids, grid, n_per_class, classes=classes, seed=seed)
+        if j == 0:
+            added_info.update(info)
+        m = len(mset.ids)
+        if m == 0:
+            return np.zeros(0, int)
+        toa = np.asarray(dense_spectra(scen.with_lamps(mset.ids, mset.spectra)))
+        toa = toa.reshape(m, -1, toa.shape[-1])
+        if toa.shape[1] != q:
+            raise RuntimeError(
+                f"modelled lamps' scenes: {toa.shape[1]} per lamp, context {q}."
+            )
+        start = n0 + sum(len(c) for c in cls[1:])
+        rads.append(
+            ctx.radiance_of(toa, bands, seed=seed + MODEL_NOISE_SEED_OFFSET * (j + 1))
+        )
+        lamp_of.append(start + np.repeat(np.arange(m), q))
+        cls.append(np.asarray(mset.level2, dtype=object))
+        t, v = lamp_truth(mset.spectra, grid)
+        truth.append(np.asarray(t))
+        valid.append(np.asarray(v))
+        return start + np.arange(m)
+
+    train = np.asarray(train, int)
+    new_train = np.concatenate([train, add(train, 0)])
+    new_inner = [
+        (np.concatenate([np.asarray(tr, int), add(tr, j + 1)]), np.asarray(va, int))
+        for j, (tr, va) in enumerate(inner)
+    ]
+    table = LampTable(
+        np.concatenate(lamp_of),
+        np.concatenate(cls),
+        np.vstack(truth),
+        np.vstack(valid),
+    )
+    return Augmented(
+        np.vstack(rads),
+        table,
+        new_train,
+        new_inner,
+        {
+            "modelled_per_class": int(n_per_class),
+            "modelled_classes_added": dict(added_info.get("added", {})),
+        },
+    )
 
 
 def fit_for_context(
@@ -1230,6 +1401,16 @@ def context_setup(ctx):
     """Lamps, always-in-prior lamps, conditions and per-row surface types of a
     `search.Context` (its scenes are surface x atmosphere x Moon x class);
     cached per context object."""
+    return _cached_setup(ctx)[:4]
+
+
+def context_scenarios(ctx):
+    """The `scene.ScenarioSet` of a `search.Context`'s scenes, lit by its first
+    lamp (`ScenarioSet.with_lamps` lights them with others); cached."""
+    return _cached_setup(ctx)[4]
+
+
+def _cached_setup(ctx):
     key = id(ctx)
     hit = _SETUP_CACHE.get(key)
     if hit is not None and hit[0] is ctx:
@@ -1258,7 +1439,7 @@ def _context_setup(ctx):
     per_surface = ctx.toa.shape[1] // len(sc["surfaces"])
     q = np.arange(ctx.toa.shape[1]) // per_surface
     row_types = [sc["surfaces"][i] for i in np.tile(q, ctx.table.n_lamps)]
-    return lamps, always, Conditions.from_scenarios(scen), row_types
+    return lamps, always, Conditions.from_scenarios(scen), row_types, scen
 
 
 def band_weights_on(bands, wavelength_nm) -> np.ndarray:
@@ -1308,20 +1489,24 @@ def cross_validate(
     (inversion only) and the number of rows whose estimate left the physical
     range (must be 0).
 
-    Estimator `"inversion+models"` (only with `modelled_per_class` > 0) is
-    the inversion with `modelled_per_class` modelled lamps per class of
-    `modelled_classes` in its prior, calibrated on each outer fold's (and
-    inner fold's) training lamps only, seed `seed` (`fit_inversion`). Test
-    lamps are measured lamps only, whatever the estimator. With
-    `modelled_per_class` > 0 every record says how many modelled lamps per
-    class its estimator's prior held (`modelled_per_class`: N for
-    "inversion+models", 0 otherwise) and the "inversion+models" records
-    list the classes that got them in that fold (`modelled_classes_added`);
-    with the default 0 the records are as before (no such keys)."""
-    if "inversion+models" in estimators and modelled_per_class < 1:
+    Estimators `MODELLED_ESTIMATORS` (only with `modelled_per_class` > 0)
+    train on `modelled_per_class` modelled lamps per class of
+    `modelled_classes` too, calibrated on each outer fold's (and inner
+    fold's) measured training lamps only, seed `seed`: "inversion+models"
+    holds them in its prior (`fit_inversion`), "ridge+models" and
+    "kernel+models" have their scenes among the training rows
+    (`augment_with_modelled`; hyper-parameters chosen on inner folds whose
+    validation lamps are measured). Test lamps are measured lamps only,
+    whatever the estimator. With `modelled_per_class` > 0 every record says
+    how many modelled lamps per class its estimator trained on
+    (`modelled_per_class`: N for a `MODELLED_ESTIMATORS` row, 0 otherwise)
+    and those rows list the classes that got them in that fold
+    (`modelled_classes_added`); with the default 0 the records are as
+    before (no such keys)."""
+    bad = [e for e in estimators if e in MODELLED_ESTIMATORS]
+    if bad and modelled_per_class < 1:
         raise ValueError(
-            "estimator 'inversion+models' needs modelled_per_class >= 1 "
-            f"(got {modelled_per_class})."
+            f"estimators {bad} need modelled_per_class >= 1 (got {modelled_per_class})."
         )
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
@@ -1333,13 +1518,14 @@ def cross_validate(
     surf_in = _surface_knowledge(row_types, basis, seed)
     out = []
     folds = range(len(ctx.splits)) if folds is None else folds
+    augmented: dict = {}  # per outer fold, shared by ridge+models and kernel+models
     for k in folds:
         s = ctx.splits[k]
         inner = list(s.inner)
         rows = np.flatnonzero(np.isin(row_lamp, s.test))
-        preds = {}
+        preds, model_info = {}, {}
         for name in estimators:
-            if name in ("inversion", "inversion+models"):
+            if name in ("inversion", "inversion+models", EVIDENCE_ESTIMATOR):
                 n_model = modelled_per_class if name == "inversion+models" else 0
                 for mode in surface_modes:
                     si = surf_in[mode]
@@ -1358,6 +1544,9 @@ def cross_validate(
                         modelled_per_class=n_model,
                         modelled_classes=modelled_classes,
                         modelled_seed=seed,
+                        sigma_rule=(
+                            "evidence" if name == EVIDENCE_ESTIMATOR else "error"
+                        ),
                     )
                     sub = (
                         None
@@ -1378,10 +1567,36 @@ def cross_validate(
                     np.asarray(est.predict(rad[rows])),
                     None,
                 )
+            elif name in ("ridge+models", "kernel+models"):
+                if k not in augmented:
+                    augmented[k] = augment_with_modelled(
+                        ctx,
+                        bands,
+                        rad,
+                        s.train,
+                        inner,
+                        modelled_per_class,
+                        classes=modelled_classes,
+                        seed=seed,
+                    )
+                aug = augmented[k]
+                if np.isin(s.test, aug.train).any() or any(
+                    np.isin(s.test, tr).any() for tr, _ in aug.inner
+                ):
+                    raise RuntimeError("a test lamp is among the training lamps.")
+                est = (
+                    fit_estimator(aug.radiance, aug.table, aug.train, aug.inner)
+                    if name == "ridge+models"
+                    else fit_kernel_estimator(
+                        aug.radiance, aug.table, aug.train, aug.inner, seed=seed
+                    )
+                )
+                preds[(name, "unknown")] = (np.asarray(est.predict(rad[rows])), None)
+                model_info[name] = aug.info
             else:
                 raise ValueError(
                     f"estimator {name!r}: expected one of "
-                    f"{(*ESTIMATORS, 'inversion+models')}."
+                    f"{(*ESTIMATORS, *MODELLED_ESTIMATORS, EVIDENCE_ESTIMATOR)}."
                 )
         for (name, mode), (p, inv) in preds.items():
             res = p if isinstance(p, InversionResult) else None
@@ -1430,7 +1645,7 @@ def cross_validate(
                     rec["unexplained"] = float(np.mean(res.unexplained[sel]))
                     rec["sigma_rel"] = inv.sigma_rel
                 if modelled_per_class > 0:
-                    rec.update(_modelled_fields(inv))
+                    rec.update(model_info.get(name) or _modelled_fields(inv))
                 out.append(rec)
     return out
 

@@ -4,7 +4,9 @@ For each band set (our recommended design and reference sensors), each lamp
 partition (fold seeds; the same nested, lamp-grouped, class-stratified folds
 for every row) and each estimator — the physics-based inversion with the
 surface unknown, its class known, or measured in daytime by Sentinel-2, and
-the bounded ridge and kernel-ridge baselines — score the held-out measured
+the bounded ridge and kernel-ridge baselines; the inversion twice, with its
+band-error scale chosen on the inner folds by metric error and by log
+evidence (`inversion-evidence`) — score the held-out measured
 lamps. Then hold out every scored lamp class in turn (unseen types).
 
     python -m experiments.estimate [--partitions 4] [--quick] [--out DIR]
@@ -19,13 +21,15 @@ measured lamps only (the NIR extension of lamps ending at 780 nm is modelled:
 only.
 
 `--modelled-per-class N` (default 0: none, and every output exactly as
-without the option) adds rows with estimator `inversion+models`: the
-inversion, recommended bands, surface unknown, on the same partitions and
-folds, with N modelled lamps per rare class (`bandopt.inversion.
-MODELLED_CLASSES`) in its prior, calibrated on each fit's measured training
-lamps only (`bandopt.inversion.fit_inversion`), and the same for the
-unseen-types study (`unseen_types.json` entry `recommended+models`). Test
-lamps stay measured lamps only. Every record of such a run, the summary
+without the option) adds rows trained on N modelled lamps per rare class
+(`bandopt.inversion.MODELLED_CLASSES`) too, on the same partitions and folds,
+surface unknown, each model calibrated on its fit's measured training lamps
+only: `inversion+models` (recommended bands; modelled lamps in the prior,
+`bandopt.inversion.fit_inversion`; also in the unseen-types study,
+`unseen_types.json` entry `recommended+models`), and `ridge+models` /
+`kernel+models` for every band set (modelled lamps' scenes among the training
+rows, `bandopt.inversion.augment_with_modelled`). Test lamps stay measured
+lamps only. Every record of such a run, the summary
 rows, the README section and the manifest say `modelled_per_class`. The
 first use fits the models to their measured lamps: 6-11 min per process
 on a busy 2-core machine (`bandopt.inversion.modelled_lamps`).
@@ -44,6 +48,11 @@ import numpy as np
 DEFAULT_BAND_SETS = ("recommended", "sdgsat-1", "nightsat", "viirs-dnb")
 MODELS = "inversion+models"
 """Estimator label of the inversion with modelled lamps in its prior."""
+EVIDENCE = "inversion-evidence"
+"""Estimator label of the inversion with `σ_rel` chosen by held-out log
+evidence (`bandopt.inversion.EVIDENCE_ESTIMATOR`); "inversion" chooses it by
+held-out metric error."""
+INVERSIONS = ("inversion", EVIDENCE, MODELS)
 FULL_SURFACE_SETS = ("recommended", "sdgsat-1")
 RECOMMENDED = Path("results/search/recommended_bands.json")
 
@@ -153,9 +162,9 @@ def main(argv=None) -> int:
             else ("unknown",)
         )
         ests = (
-            ("inversion", "ridge", "kernel")
+            ("inversion", EVIDENCE, "ridge", "kernel")
             if len(bands.names) > 1
-            else ("inversion", "ridge")
+            else ("inversion", EVIDENCE, "ridge")
         )
         t0 = time.time()
         recs = inv_mod.cross_validate(
@@ -164,15 +173,14 @@ def main(argv=None) -> int:
         if n_model:
             for r in recs:
                 r["modelled_per_class"] = 0
-            if name == "recommended":
-                recs += inv_mod.cross_validate(
-                    ctx,
-                    bands,
-                    estimators=(MODELS,),
-                    surface_modes=("unknown",),
-                    seed=p,
-                    modelled_per_class=n_model,
-                )
+            recs += inv_mod.cross_validate(
+                ctx,
+                bands,
+                estimators=modelled_estimators(name, len(bands.names)),
+                surface_modes=("unknown",),
+                seed=p,
+                modelled_per_class=n_model,
+            )
         for r in recs:
             r.update(partition=p, band_set=name)
         with rec_path.open("a") as fh:
@@ -265,6 +273,15 @@ def main(argv=None) -> int:
     return 0
 
 
+def modelled_estimators(band_set_name: str, n_bands: int) -> tuple[str, ...]:
+    """Estimators trained on modelled lamps too in a `--modelled-per-class`
+    run: the ridge for every band set, the kernel ridge for every band set
+    with more than one band (as without models), the inversion for the
+    recommended bands only (its prior: the slow part)."""
+    out = ("ridge+models",) + (("kernel+models",) if n_bands > 1 else ())
+    return ((MODELS,) if band_set_name == "recommended" else ()) + out
+
+
 def modelled_per_class_of(records) -> int:
     """Modelled lamps per class of a run's `inversion+models` rows (0: a run
     without them, e.g. every record written before the option existed)."""
@@ -279,7 +296,8 @@ def modelled_lamps_config(n_model: int) -> dict:
         "training_lamps": "measured lamps (spectra ending at 780 nm carry the "
         "modelled NIR extension of bandopt.datasets.nir); estimator "
         f"'{MODELS}' (recommended bands, surface unknown, and the unseen-types "
-        f"entry 'recommended+models') also {n_model} modelled lamps per class of "
+        "entry 'recommended+models'), 'ridge+models' and 'kernel+models' (every "
+        f"band set, surface unknown) also {n_model} modelled lamps per class of "
         f"{list(MODELLED_CLASSES)} with >= {MIN_CALIBRATION_LAMPS} measured "
         "training lamps (bandopt.lampmodels), calibrated on each fit's measured "
         "training lamps only",
@@ -355,11 +373,11 @@ def _coverage(summary, unseen) -> dict:
     90 % interval), held-out lamps per band set / surface, and unseen types."""
     out = {"nominal_coverage": 0.9, "held_out_lamps": {}, "unseen_types": {}}
     for r in summary:
-        if r["estimator"] not in ("inversion", MODELS):
+        if r["estimator"] not in INVERSIONS:
             continue
         key = f"{r['band_set']}/{r['surface']}"
-        if r["estimator"] == MODELS:
-            key += f"/{MODELS}"
+        if r["estimator"] != "inversion":
+            key += f"/{r['estimator']}"
         out["held_out_lamps"][key] = {
             f"{m}_coverage": r.get(f"{m}_covered") for m in ("LER", "G", "CCT")
         }
@@ -387,7 +405,9 @@ def readme_text(summary, paired, unseen) -> str:
         "folds for every row), class-balanced MAE, mean ± SD over "
         f"{summary[0]['partitions'] if summary else 0} lamp partitions; CCT in K "
         "(a null CCT counts as 25000 K) and mired. Inversion: surface unknown / "
-        "class known / measured by Sentinel-2. Coverage: fraction of true values "
+        "class known / measured by Sentinel-2; its band-error scale σ_rel chosen "
+        f"on the inner folds by held-out metric error (`inversion`) or by "
+        f"held-out log evidence (`{EVIDENCE}`). Coverage: fraction of true values "
         "inside the 90 % intervals. "
         + _training_sentence(summary)
         + " Generated by `python -m experiments.estimate "
@@ -463,7 +483,8 @@ def _training_sentence(summary) -> str:
 
     return (
         "Scoring uses measured lamps only. Rows "
-        f"`{MODELS}` also train on {n} modelled lamps per class of "
+        f"`{MODELS}` (in the prior), `ridge+models` and `kernel+models` (among "
+        f"the training rows) also train on {n} modelled lamps per class of "
         f"{', '.join(MODELLED_CLASSES)} (physical lamp models, `bandopt.lampmodels`; "
         f"classes with >= {MIN_CALIBRATION_LAMPS} measured training lamps), "
         "calibrated on each fit's measured training lamps only; every other row "
@@ -547,6 +568,26 @@ def _overall(recs):
     return res
 
 
+ESTIMATOR_COLOURS = {
+    "inversion": "C0",
+    "ridge": "C1",
+    "kernel": "C2",
+    MODELS: "C3",
+    "ridge+models": "C4",
+    "kernel+models": "C5",
+    EVIDENCE: "C6",
+}
+COLOUR_NAMES = {
+    "C0": "blue",
+    "C1": "orange",
+    "C2": "green",
+    "C3": "red",
+    "C4": "purple",
+    "C5": "brown",
+    "C6": "pink",
+}
+
+
 def _figures(summary, unseen, out, preset):
     import matplotlib
 
@@ -560,25 +601,29 @@ def _figures(summary, unseen, out, preset):
     for ax, m in zip(axes, ("LER", "G", "CCT"), strict=True):
         v = [r.get(m, np.nan) for r in summary]
         e = [r.get(f"{m}_sd") or 0.0 for r in summary]
-        colours = [
-            {"inversion": "C0", "ridge": "C1", MODELS: "C3"}.get(r["estimator"], "C2")
-            for r in summary
-        ]
+        colours = [ESTIMATOR_COLOURS.get(r["estimator"], "C7") for r in summary]
         ax.bar(x, v, yerr=e, color=colours, capsize=2)
         ax.set_xticks(x, labels, rotation=90, fontsize=6)
         ax.set_ylabel(f"class-balanced MAE {m} [{units[m]}]")
         ax.set_title(f"{m}: mean ± SD over partitions")
     fig.suptitle(
         f"Held-out measured lamps (preset {preset}); "
-        "blue inversion, orange ridge, green kernel"
-        + (f", red {MODELS} (modelled lamps in the prior)" if MODELS in {
-            r["estimator"] for r in summary} else "")
+        + ", ".join(
+            f"{COLOUR_NAMES[c]} {e}"
+            for e, c in ESTIMATOR_COLOURS.items()
+            if e in {r["estimator"] for r in summary}
+        )
+        + (
+            " (+models: modelled lamps also train)"
+            if any(r["estimator"].endswith("+models") for r in summary)
+            else ""
+        )
     )
     fig.tight_layout()
     fig.savefig(out / "errors.png", dpi=90)
     plt.close(fig)
 
-    inv_rows = [r for r in summary if r["estimator"] in ("inversion", MODELS)]
+    inv_rows = [r for r in summary if r["estimator"] in INVERSIONS]
     fig, ax = plt.subplots(figsize=(8, 4.5))
     w = 0.25
     xx = np.arange(len(inv_rows))
@@ -595,7 +640,7 @@ def _figures(summary, unseen, out, preset):
         xx,
         [
             f"{r['band_set']}/{r['surface']}"
-            + ("/+models" if r["estimator"] == MODELS else "")
+            + {MODELS: "/+models", EVIDENCE: "/evidence-σ"}.get(r["estimator"], "")
             for r in inv_rows
         ],
         rotation=45,

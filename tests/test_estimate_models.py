@@ -101,7 +101,8 @@ def test_a_run_with_modelled_lamps_says_so_everywhere():
         "recommended+models": {"overall": overall, "modelled_per_class": 7},
     }
     text = est.readme_text(summary, [], unseen)
-    assert f"`{est.MODELS}` also train on 7 modelled lamps per class" in text
+    assert "also train on 7 modelled lamps per class" in text
+    assert f"`{est.MODELS}` (in the prior), `ridge+models`" in text
     assert "calibrated on each fit's measured training lamps only" in text
     assert "Scoring uses measured lamps only" in text
     assert f"| recommended | {est.MODELS} | unknown |" in text

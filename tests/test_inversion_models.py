@@ -22,6 +22,8 @@ GRID = np.arange(380.0, 901.0)
 CLASSES = ("hps", "led_warm", "led_cool", "fluorescent_linear", "mercury")
 N_MODEL = 6
 MODELLED = ("mercury",)
+AMBER = ("led_amber",)
+"""A class with >= 2 training lamps in every inner fit of the tiny context."""
 FIVE = BandSet.from_physical(
     np.array([450.0, 530.0, 600.0, 680.0, 820.0]),
     np.array([60.0, 60.0, 50.0, 60.0, 80.0]),
@@ -267,7 +269,7 @@ def test_cross_validate_scores_measured_lamps_only_and_says_so(case, monkeypatch
     for a, b in zip(plain, by["inversion"], strict=True):
         b = {k: v for k, v in b.items() if k != "modelled_per_class"}
         assert a == b
-    with pytest.raises(ValueError, match="needs modelled_per_class >= 1"):
+    with pytest.raises(ValueError, match="modelled_per_class >= 1"):
         inv_mod.cross_validate(ctx, FIVE, estimators=("inversion+models",), **kw)
 
 
@@ -388,3 +390,104 @@ def test_unseen_class_never_gets_a_model_of_itself(case, monkeypatch):
         want = {} if r["held_out_class"] == "mercury" else {"mercury": 2}
         assert r["modelled_classes_added"] == want
     assert {r["lamp"] for r in recs} == set(lamps.ids)  # measured lamps only
+
+
+@pytest.fixture(scope="module")
+def tiny_ctx():
+    from bandopt.search import get_context
+
+    return get_context("tiny", None, 0, "none")
+
+
+def test_context_scenes_lit_by_a_library_lamp_reproduce_its_rows(tiny_ctx):
+    """The scenes `augment_with_modelled` lights modelled lamps with are the
+    context's: a library lamp put through them gives its own rows."""
+    from bandopt.forward import dense_spectra
+
+    lamps, *_ = inv_mod.context_setup(tiny_ctx)
+    scen = inv_mod.context_scenarios(tiny_ctx)
+    pick = [0, 7]
+    toa = np.asarray(
+        dense_spectra(
+            scen.with_lamps([lamps.ids[i] for i in pick], lamps.spectra[pick])
+        )
+    ).reshape(len(pick), -1, GRID.size)
+    np.testing.assert_allclose(toa, tiny_ctx.toa[pick], rtol=1e-10, atol=1e-18)
+
+
+def test_ridge_and_kernel_train_on_modelled_lamps_scored_on_measured(tiny_ctx):
+    """`ridge+models` / `kernel+models`: the modelled amber-LED lamps (6
+    measured training lamps, 3 per inner fit) join the training rows of the
+    outer fit (calibrated on its training lamps) and of each inner fit
+    (calibrated on that fit's training lamps), never a validation or test
+    lamp; records say so; the plain rows are unchanged."""
+    ctx = tiny_ctx
+    s = ctx.splits[0]
+    rad = ctx.radiance(FIVE)
+    calls = []
+    real = lampmodels.calibrate
+
+    def spy(level2, train_lamps=None):
+        calls.append((level2, set(train_lamps)))
+        return real(level2, train_lamps)
+
+    lamps, always, *_ = inv_mod.context_setup(ctx)
+    mp = pytest.MonkeyPatch()
+    mp.setattr(lampmodels, "calibrate", spy)
+    try:
+        aug = inv_mod.augment_with_modelled(
+            ctx, FIVE, rad, s.train, list(s.inner), N_MODEL, classes=AMBER
+        )
+    finally:
+        mp.undo()
+    n0, q = ctx.table.n_lamps, ctx.toa.shape[1]
+    assert len(calls) == 1 + len(s.inner)  # outer fit, then each inner fit
+    sets = [s.train] + [tr for tr, _ in s.inner]
+    for (cls, used), tr in zip(calls, sets, strict=True):
+        assert cls == "led_amber"
+        assert used == {lamps.ids[i] for i in tr} | set(always.ids)
+    new = np.setdiff1d(aug.train, s.train)
+    assert len(new) == N_MODEL and new.min() >= n0
+    for (tr, va), (tr0, va0) in zip(aug.inner, s.inner, strict=True):
+        np.testing.assert_array_equal(va, va0)  # validation: measured lamps only
+        extra = np.setdiff1d(tr, tr0)
+        assert len(extra) == N_MODEL and extra.min() >= n0
+        assert not np.isin(extra, new).any()  # its own calibration
+    n_sets = 1 + len(s.inner)
+    assert aug.radiance.shape == (rad.shape[0] + n_sets * N_MODEL * q, 5)
+    np.testing.assert_array_equal(aug.radiance[: rad.shape[0]], rad)
+    assert set(aug.table.classes[n0:]) == {"led_amber"}
+    assert np.all(aug.table.truth[n0:, 0] > 0) and np.all(aug.table.truth[n0:, 0] < 683)
+    assert aug.info == {
+        "modelled_per_class": N_MODEL,
+        "modelled_classes_added": {"led_amber": N_MODEL},
+    }
+
+    kw = dict(folds=[0], modelled_classes=AMBER)
+    recs = inv_mod.cross_validate(
+        ctx,
+        FIVE,
+        estimators=("ridge", "ridge+models", "kernel+models"),
+        modelled_per_class=N_MODEL,
+        **kw,
+    )
+    by = {}
+    for r in recs:
+        by.setdefault(r["estimator"], []).append(r)
+    test_ids = {lamps.ids[i] for i in s.test}
+    for est, rs in by.items():
+        assert {r["lamp"] for r in rs} == test_ids
+        assert all(r["out_of_range"] == 0 for r in rs)
+        assert all(r["modelled_per_class"] == (0 if est == "ridge" else N_MODEL)
+                   for r in rs)  # fmt: skip
+    assert all(
+        r["modelled_classes_added"] == {"led_amber": N_MODEL}
+        for r in by["ridge+models"] + by["kernel+models"]
+    )
+    plain = inv_mod.cross_validate(ctx, FIVE, estimators=("ridge",), **kw)
+    for a, b in zip(plain, by["ridge"], strict=True):
+        assert a == {k: v for k, v in b.items() if k != "modelled_per_class"}
+    # the modelled lamps change the amberury lamps' estimates, nothing else breaks
+    amber = [r for r in by["ridge+models"] if r["level2"] == "led_amber"]
+    amber0 = [r for r in by["ridge"] if r["level2"] == "led_amber"]
+    assert amber and [r["LER"] for r in amber] != [r["LER"] for r in amber0]

@@ -78,7 +78,14 @@ class Context:
 
         Evaluation draws come from `seed + EVALUATION_SEED_OFFSET`, so a band
         set found with the search draws of `seed` is scored on fresh noise."""
-        toa = self.toa.reshape(-1, self.toa.shape[-1])
+        return self.radiance_of(self.toa, bands, seed=seed)
+
+    def radiance_of(self, toa, bands, *, seed: int = 0) -> np.ndarray:
+        """`radiance` for other spectra under this context's scenes, e.g.
+        modelled lamps' `(m, q, w)` (same scaling to the noise level, same
+        noise rule, draws from `seed + EVALUATION_SEED_OFFSET`: give a seed
+        of its own to keep them apart from the measured rows' draws)."""
+        toa = np.asarray(toa).reshape(-1, np.shape(toa)[-1])
         if self.noise_radiance is not None:
             toa = _scale_to(toa, self.wavelength_nm, self.noise_radiance)
         return np.asarray(
