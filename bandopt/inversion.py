@@ -1772,6 +1772,43 @@ def paired_differences(summary_rows, reference: str, against: str):
     return out
 
 
+ESTIMATOR_PAIRS = (
+    ("ridge+models", "ridge"),
+    ("kernel+models", "kernel"),
+    ("inversion+models", "inversion"),
+    (EVIDENCE_ESTIMATOR, "inversion"),
+)
+"""(variant, base) estimator pairs `estimator_differences` compares: what
+modelled training lamps and the evidence rule for `σ_rel` change."""
+
+
+def estimator_differences(summary_rows, pairs=ESTIMATOR_PAIRS):
+    """Per band set, surface and (variant, base) pair of `pairs`: MAE of the
+    variant minus the base estimator, paired by partition (the same folds and
+    test lamps); mean, SD over partitions (ddof 1) and relative change of the
+    mean. Pairs missing from `summary_rows` are skipped."""
+    by = {(r["band_set"], r["estimator"], r["surface"]): r for r in summary_rows}
+    out = []
+    for variant, base in pairs:
+        for (bs, est, surf), r in sorted(by.items()):
+            if est != variant or (bs, base, surf) not in by:
+                continue
+            ref = by[(bs, base, surf)]
+            row = {"band_set": bs, "surface": surf, "estimator": variant, "vs": base}
+            for m in ("LER", "G", "CCT", "CCT_mired"):
+                a, b = r.get(f"{m}_per_partition"), ref.get(f"{m}_per_partition")
+                if not a or not b or len(a) != len(b):
+                    continue
+                d = np.asarray(a) - np.asarray(b)
+                row[f"{m}_diff"] = float(d.mean())
+                row[f"{m}_diff_sd"] = float(d.std(ddof=1)) if d.size > 1 else None
+                row[f"{m}_relative"] = (
+                    float(d.mean() / np.mean(b)) if np.mean(b) else None
+                )
+            out.append(row)
+    return out
+
+
 def leave_one_class_out(
     ctx,
     bands,

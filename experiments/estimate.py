@@ -15,7 +15,9 @@ lamps. Then hold out every scored lamp class in turn (unseen types).
 Writes `records.jsonl` (one line per test lamp; recomputed from scratch unless
 `--resume`, which keeps finished (partition, band set) units of an interrupted
 run and skips them), `summary.json/.csv`,
-`paired.json`, `unseen_types.json`, figures and `manifest.json`. Training uses
+`paired.json` (band sets), `estimator_paired.json` (modelled training lamps
+and the evidence rule against their base estimator), `unseen_types.json`,
+figures and `manifest.json`. Training uses
 measured lamps only (the NIR extension of lamps ending at 780 nm is modelled:
 `bandopt.datasets.nir`; counts in the manifest); scoring uses measured lamps
 only.
@@ -199,6 +201,8 @@ def main(argv=None) -> int:
             paired += inv_mod.paired_differences(summary, "recommended", name)
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     (out / "paired.json").write_text(json.dumps(paired, indent=2) + "\n")
+    variants = inv_mod.estimator_differences(summary)
+    (out / "estimator_paired.json").write_text(json.dumps(variants, indent=2) + "\n")
     cols = ["band_set", "estimator", "surface", "partitions", "out_of_range"]
     for c in inv_mod.SUMMARY_COLUMNS:
         cols += [c, f"{c}_sd"]
@@ -245,7 +249,7 @@ def main(argv=None) -> int:
 
         update_readme_section(
             "estimate",
-            readme_text(summary, paired, unseen),
+            readme_text(summary, paired, unseen, variants),
             heading="## Estimation on unseen lamps",
         )
         update_recommendation("estimation", _recommendation(summary, coverage))
@@ -396,7 +400,7 @@ def _fmt(r, m, digits):
     return f"{v:.{digits}f} ± {sd:.{digits}f}" if sd is not None else f"{v:.{digits}f}"
 
 
-def readme_text(summary, paired, unseen) -> str:
+def readme_text(summary, paired, unseen, variants=()) -> str:
     """The results/README.md section, every number read from the summaries."""
     lines = [
         "## Estimation on unseen lamps (`results/estimate/`, `make estimate`)",
@@ -445,6 +449,26 @@ def readme_text(summary, paired, unseen) -> str:
                 cells.append("n/a" if v is None else f"{v:+.{d}f} ± {(sd or 0):.{d}f}")
             lines.append(
                 f"| {p['band_set']} | {p['estimator']} | {p['surface']} | "
+                + " | ".join(cells)
+                + " |"
+            )
+    if variants:
+        lines += [
+            "",
+            "What modelled training lamps and the evidence rule for σ_rel change "
+            "(variant minus base estimator, same band set and folds, by partition; "
+            "positive = the variant is worse; `estimator_paired.json`):",
+            "",
+            "| band set | variant | vs | surface | LER | G | CCT [K] |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for p in variants:
+            cells = []
+            for m, d in (("LER", 1), ("G", 3), ("CCT", 0)):
+                v, sd = p.get(f"{m}_diff"), p.get(f"{m}_diff_sd")
+                cells.append("n/a" if v is None else f"{v:+.{d}f} ± {(sd or 0):.{d}f}")
+            lines.append(
+                f"| {p['band_set']} | {p['estimator']} | {p['vs']} | {p['surface']} | "
                 + " | ".join(cells)
                 + " |"
             )
@@ -593,38 +617,49 @@ def _figures(summary, unseen, out, preset):
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
 
     units = {"LER": "lm/W", "G": "1", "CCT": "K"}
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.8))
-    labels = [f"{r['band_set']}\n{r['estimator']}/{r['surface']}" for r in summary]
-    x = np.arange(len(summary))
-    for ax, m in zip(axes, ("LER", "G", "CCT"), strict=True):
-        v = [r.get(m, np.nan) for r in summary]
-        e = [r.get(f"{m}_sd") or 0.0 for r in summary]
-        colours = [ESTIMATOR_COLOURS.get(r["estimator"], "C7") for r in summary]
-        ax.bar(x, v, yerr=e, color=colours, capsize=2)
-        ax.set_xticks(x, labels, rotation=90, fontsize=6)
-        ax.set_ylabel(f"class-balanced MAE {m} [{units[m]}]")
-        ax.set_title(f"{m}: mean ± SD over partitions")
-    fig.suptitle(
-        f"Held-out measured lamps (preset {preset}); "
-        + ", ".join(
-            f"{COLOUR_NAMES[c]} {e}"
-            for e, c in ESTIMATOR_COLOURS.items()
-            if e in {r["estimator"] for r in summary}
-        )
-        + (
-            " (+models: modelled lamps also train)"
-            if any(r["estimator"].endswith("+models") for r in summary)
-            else ""
-        )
+    # one horizontal bar per row, grouped by band set, labels on the left
+    rows = sorted(summary, key=lambda r: (r["band_set"], r["estimator"], r["surface"]))
+    n = len(rows)
+    fig, axes = plt.subplots(
+        1, 3, figsize=(15, 1.5 + 0.22 * n), sharey=True, squeeze=False
     )
-    fig.tight_layout()
+    y = np.arange(n)[::-1]
+    labels = [f"{r['band_set']} · {r['estimator']} / {r['surface']}" for r in rows]
+    colours = [ESTIMATOR_COLOURS.get(r["estimator"], "C7") for r in rows]
+    for ax, m in zip(axes[0], ("LER", "G", "CCT"), strict=True):
+        v = [np.nan if r.get(m) is None else r[m] for r in rows]
+        e = [r.get(f"{m}_sd") or 0.0 for r in rows]
+        ax.barh(y, v, xerr=e, color=colours, capsize=2)
+        ax.set_yticks(y, labels, fontsize=7)
+        ax.set_xlabel(f"class-balanced MAE {m} [{units[m]}]")
+        ax.set_title(f"{m}: mean ± SD over partitions", fontsize=10)
+        ax.grid(axis="x", alpha=0.3)
+        for k in range(1, n):  # a line between band sets
+            if rows[k]["band_set"] != rows[k - 1]["band_set"]:
+                ax.axhline(y[k] + 0.5, color="0.6", lw=0.6)
+    present = {r["estimator"] for r in rows}
+    handles = [
+        Patch(color=c, label=e) for e, c in ESTIMATOR_COLOURS.items() if e in present
+    ]
+    fig.legend(
+        handles=handles,
+        loc="lower center",
+        ncol=len(handles),
+        fontsize=8,
+        title="estimator (+models: modelled lamps also train)",
+        title_fontsize=8,
+        frameon=False,
+    )
+    fig.suptitle(f"Held-out measured lamps (preset {preset})")
+    fig.tight_layout(rect=(0, 1.2 / (1.5 + 0.22 * n), 1, 1))
     fig.savefig(out / "errors.png", dpi=90)
     plt.close(fig)
 
     inv_rows = [r for r in summary if r["estimator"] in INVERSIONS]
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    fig, ax = plt.subplots(figsize=(11, 5))
     w = 0.25
     xx = np.arange(len(inv_rows))
     for j, m in enumerate(("LER", "G", "CCT")):
@@ -647,9 +682,9 @@ def _figures(summary, unseen, out, preset):
         ha="right",
         fontsize=7,
     )
-    ax.set_ylabel("fraction of true values inside the 90 % interval [1]")
+    ax.set_ylabel("true values inside the 90 % interval [fraction]")
     ax.set_ylim(0, 1.05)
-    ax.legend(loc="lower left", fontsize=7)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
     ax.set_title("Interval coverage on held-out lamps (inversion)")
     fig.tight_layout()
     fig.savefig(out / "coverage.png", dpi=90)

@@ -38,7 +38,12 @@ def test_committed_records_regenerate_the_committed_section():
     summary = inv_mod.summarise(recs)
     committed = json.loads((RESULTS / "estimate" / "summary.json").read_text())
     assert json.loads(json.dumps(summary)) == committed
-    text = est.readme_text(summary, _paired(summary), unseen)
+    variants = inv_mod.estimator_differences(summary)
+    committed_variants = json.loads(
+        (RESULTS / "estimate" / "estimator_paired.json").read_text()
+    )
+    assert json.loads(json.dumps(variants)) == committed_variants
+    text = est.readme_text(summary, _paired(summary), unseen, variants)
     readme = (RESULTS / "README.md").read_text()
     a, b = "<!-- estimate:start -->", "<!-- estimate:end -->"
     section = readme[readme.index(a) + len(a) : readme.index(b)].strip()

@@ -216,6 +216,39 @@ def test_summaries_are_class_balanced_and_paired_by_partition():
     assert pd["LER_relative"] == pytest.approx(1.0)
 
 
+def test_estimator_differences_are_paired_within_a_band_set():
+    """`estimator_differences`: variant minus base of the same band set and
+    surface, paired by partition; pairs without a base are skipped."""
+    recs = []
+    for p, err in enumerate([1.0, 2.0, 4.0]):
+        for est, extra in (("ridge", 0.0), ("ridge+models", 0.5 + p)):
+            for bs, scale in (("recommended", 1.0), ("sdgsat-1", 3.0)):
+                recs.append(
+                    {
+                        "band_set": bs,
+                        "estimator": est,
+                        "surface": "unknown",
+                        "partition": p,
+                        "lamp": "l0",
+                        "level2": "x",
+                        "out_of_range": 0,
+                        "LER": scale * err + extra,
+                    }
+                )
+    recs.append(dict(recs[0], estimator="kernel+models"))  # no kernel base
+    rows = inv_mod.summarise(recs)
+    out = inv_mod.estimator_differences(rows)
+    assert {(r["band_set"], r["estimator"], r["vs"]) for r in out} == {
+        ("recommended", "ridge+models", "ridge"),
+        ("sdgsat-1", "ridge+models", "ridge"),
+    }
+    for r in out:
+        # differences 0.5, 1.5, 2.5 whatever the band set's own error level
+        assert r["LER_diff"] == pytest.approx(1.5)
+        assert r["LER_diff_sd"] == pytest.approx(1.0)
+        assert "G_diff" not in r
+
+
 def test_shared_candidate_fast_path_matches_per_pixel_path(lamps, basis):
     inv = inv_mod.build_inversion(
         lamps.take(range(40)), _weights(FIVE), inv_mod.Conditions.clear(GRID), basis
