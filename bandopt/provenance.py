@@ -43,6 +43,37 @@ def _git(*args: str) -> str | None:
     return out.stdout.strip() or None
 
 
+def code_changes() -> list[str] | None:
+    """Tracked files outside `results/` that differ from HEAD (at most 20),
+    [] for a clean code tree, None outside git. `results/` is left out: an
+    experiment writes its own outputs before its manifest, so counting them
+    would mark every run dirty."""
+    try:
+        out = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            check=True,
+            cwd=Path(__file__).resolve().parent,
+        ).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    return _changed_code_paths(out)
+
+
+def _changed_code_paths(porcelain: str) -> list[str]:
+    """Paths of `git status --porcelain` lines, without `results/` (a rename
+    counts by its new path)."""
+    paths = []
+    for line in porcelain.splitlines():
+        if len(line) < 4:
+            continue
+        path = line[3:].split(" -> ")[-1].strip('"')
+        if not path.startswith("results/"):
+            paths.append(path)
+    return paths[:20]
+
+
 def git_commit() -> str | None:
     """The commit (HEAD) of the git checkout holding bandopt; None outside git."""
     return _git("rev-parse", "HEAD")
@@ -98,10 +129,11 @@ def manifest(*, seed: int | None = None, config: dict | None = None, **extra) ->
             versions[name] = metadata.version(name)
         except metadata.PackageNotFoundError:
             versions[name] = None
-    status = _git("status", "--porcelain", "--untracked-files=no")
+    dirty = code_changes()
     return {
         "git_commit": git_commit(),
-        "git_dirty": bool(status) if status is not None else None,
+        "git_dirty": None if dirty is None else bool(dirty),
+        "git_dirty_paths": dirty,
         "packages": versions,
         "python": sys.version.split()[0],
         "seed": seed,
