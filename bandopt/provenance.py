@@ -120,9 +120,25 @@ def lamp_library_info() -> dict:
     }
 
 
-def manifest(*, seed: int | None = None, config: dict | None = None, **extra) -> dict:
-    """A provenance record: git commit (and whether the tree was dirty), package
-    versions, seed, data versions, command line, machine, time."""
+LAMP_MODELS_NOT_USED = (
+    "not used: every lamp spectrum that trained or scored is a measured one "
+    "(spectra measured only to 780 nm carry the modelled NIR extension, see "
+    "lamp_library); no spectrum of the physical lamp models (bandopt.lampmodels)"
+)
+"""What a manifest says of the lamp models unless its experiment says otherwise."""
+
+
+def manifest(
+    *,
+    seed: int | None = None,
+    config: dict | None = None,
+    lamp_models: str = LAMP_MODELS_NOT_USED,
+    **extra,
+) -> dict:
+    """A provenance record: git commit (and whether the code tree was dirty),
+    package versions, seed, data versions, lamp library, whether modelled lamp
+    spectra trained anything (`lamp_models`: an experiment that uses them
+    says where and how; they never score), command line, machine, time."""
     versions = {}
     for name in PACKAGES:
         try:
@@ -139,6 +155,7 @@ def manifest(*, seed: int | None = None, config: dict | None = None, **extra) ->
         "seed": seed,
         "data_versions": data_versions(),
         "lamp_library": lamp_library_info(),
+        "lamp_models": lamp_models,
         "command_line": sys.argv,
         "machine": {"platform": platform.platform(), "processor": platform.machine()},
         "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),

@@ -272,7 +272,16 @@ def main(argv=None) -> int:
     }
     if n_model:
         config.update(modelled_lamps_config(n_model))
-    write_manifest(out, seed=0, config=config)
+    kw = {}
+    if n_model:
+        kw["lamp_models"] = (
+            f"used in training only: {n_model} modelled lamps per class of "
+            f"{list(inv_mod.MODELLED_CLASSES)} (bandopt.lampmodels, calibrated on "
+            "each fit's measured training lamps) in the rows inversion+models, "
+            "ridge+models, kernel+models and the unseen-types entry "
+            "recommended+models; never scored (test lamps are measured)"
+        )
+    write_manifest(out, seed=0, config=config, **kw)
     log(f"done: {out}")
     return 0
 

@@ -13,6 +13,9 @@ def test_manifest_records_what_made_a_result(tmp_path):
     assert lib["extended_spectra"] > 0 and "nir_extension" in lib
     assert "nist_traditional_lps" in lib["extended_unvalidated"]
     assert "command_line" in m and "git_commit" in m
+    assert m["lamp_models"].startswith("not used")
+    said = write_manifest(tmp_path / "models", lamp_models="used in training only")
+    assert json.loads(said.read_text())["lamp_models"] == "used in training only"
 
 
 def test_dirty_means_code_outside_results():
