@@ -9,7 +9,7 @@ BEFORE  ?= 0e7885f
 SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: run test test-slow lint bench atmospheres surfaces library lamp-models ler \
-        g cct sweep compare classify radiometry spatial noise-aware estimate \
+        g cct sweep compare classify radiometry spatial noise-aware estimate estimate-moon \
         before-after report check-report docs tutorial clean
 
 $(STAMP): pyproject.toml requirements.lock
@@ -68,8 +68,11 @@ compare: $(STAMP)
 noise-aware: $(STAMP)
 	$(BIN)/python -m experiments.noise_aware
 
-estimate: $(STAMP)  ## inversion vs regression on held-out and unseen lamps, and the inversion with 5 modelled lamps per rare class in its prior (writes recommendation.json "estimation")
+estimate: $(STAMP)  ## inversion vs regression on held-out and unseen lamps, and the estimators with 5 modelled lamps per rare class in training (writes recommendation.json "estimation")
 	$(BIN)/python -m experiments.estimate --modelled-per-class 5
+
+estimate-moon: $(STAMP)  ## the estimate's scenes split by Moon state: where the G error comes from (about 10 min)
+	$(BIN)/python -m experiments.estimate_moon
 
 classify: $(STAMP)  ## lamp-type classification (writes recommendation.json "classification")
 	$(BIN)/python -m experiments.classify

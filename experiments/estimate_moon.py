@@ -1,0 +1,177 @@
+"""Where the estimate's G error comes from: the Moon (issue 12).
+
+`make estimate` scores the recommended bands on the band search's scenario
+preset ("search": 4 surfaces x 2 atmospheres x Moon none/full x P1/P6, no
+photon noise) and finds G 0.84; the search's own judge (8 scenes per lamp at
+P4, photon noise, no Moon) finds 0.37 for the same bands and estimator. This
+splits the preset by Moon state, on the same lamp partitions and folds: the
+same scenes without the Moon, and with the full Moon only. Inversion (surface
+unknown) and the bounded ridge, recommended bands, measured lamps only.
+
+    python -m experiments.estimate_moon [--partitions 4] [--out DIR]
+
+Writes `summary.json` (class-balanced MAE per Moon state and estimator, mean
+± SD over partitions, per class for G), `records.jsonl`, `manifest.json`
+and the `estimate-moon` section of `results/README.md` (default output only).
+"""
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+MOON_STATES = {
+    "none and full (as make estimate)": None,
+    "none": (None,),
+    "full": ("full",),
+}
+"""Moon states of each scene set (None: the preset's own, Moon none and full)."""
+ESTIMATORS = ("inversion", "ridge")
+
+
+def log(msg: str) -> None:
+    print(
+        f"[estimate_moon {time.strftime('%H:%M:%S')}] {msg}",
+        file=sys.stderr,
+        flush=True,
+    )
+
+
+def preset_name(moons) -> str:
+    """The scenario preset of a Moon state set (registered on first use)."""
+    from bandopt.search import _task
+
+    if moons is None:
+        return "search"
+    name = "search_moon_" + "_".join("none" if m is None else m for m in moons)
+    _task.PRESETS.setdefault(name, dict(_task.PRESETS["search"], moons=tuple(moons)))
+    return name
+
+
+def g_by_class(records, estimator: str) -> dict:
+    """Mean G error per level-2 class (all partitions) of one estimator."""
+    out: dict[str, list] = {}
+    for r in records:
+        if r["estimator"] == estimator and r.get("G") is not None:
+            out.setdefault(r["level2"], []).append(r["G"])
+    return {c: float(np.mean(v)) for c, v in sorted(out.items())}
+
+
+def readme_text(summary: dict) -> str:
+    lines = [
+        "## Where the G error comes from: the Moon (`results/estimate_moon/`, "
+        "`make estimate-moon`)",
+        "",
+        "The recommended bands on the scenes of `make estimate` (search preset, no "
+        "photon noise), split by Moon state; same lamp partitions and folds; "
+        f"class-balanced MAE, mean ± SD over {summary['partitions']} partitions; "
+        "measured lamps only. Generated from `summary.json`.",
+        "",
+        "| Moon | estimator | LER [lm/W] | G | CCT [K] | G: amber LED | G: mercury "
+        "| G: metal halide |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for row in summary["rows"]:
+        g = row["G_by_class"]
+
+        def cell(m, d, row=row):
+            return f"{row[m]:.{d}f} ± {row[m + '_sd']:.{d}f}"
+
+        per_class = " | ".join(
+            f"{g.get(c, float('nan')):.2f}"
+            for c in ("led_amber", "mercury", "metal_halide")
+        )
+        lines.append(
+            f"| {row['moon']} | {row['estimator']} | {cell('LER', 1)} | "
+            f"{cell('G', 3)} | {cell('CCT', 0)} | {per_class} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument(
+        "--partitions", type=int, default=4, help="lamp partitions (default 4)"
+    )
+    ap.add_argument(
+        "--out", default=None, help="output folder (default results/estimate_moon)"
+    )
+    args = ap.parse_args(argv)
+    if args.partitions < 1:
+        ap.error("--partitions must be >= 1.")
+
+    from bandopt._config import configure
+
+    configure()
+    from bandopt import inversion as inv_mod
+    from bandopt.provenance import write_manifest
+    from bandopt.results import update_readme_section
+    from bandopt.search import get_context
+    from experiments.estimate import band_set
+
+    out = Path(args.out or "results/estimate_moon")
+    out.mkdir(parents=True, exist_ok=True)
+    bands = band_set("recommended")
+    rows, all_recs = [], []
+    t0 = time.time()
+    for label, moons in MOON_STATES.items():
+        recs = []
+        for p in range(args.partitions):
+            ctx = get_context(preset_name(moons), None, p, "auto")
+            r = inv_mod.cross_validate(
+                ctx, bands, estimators=ESTIMATORS, surface_modes=("unknown",), seed=p
+            )
+            for x in r:
+                x.update(partition=p, band_set="recommended", moon=label)
+            recs += r
+            log(f"Moon {label}, partition {p}: {time.time() - t0:.0f} s")
+        for s in inv_mod.summarise(recs):
+            rows.append(
+                {
+                    "moon": label,
+                    "estimator": s["estimator"],
+                    **{
+                        k: s.get(k)
+                        for k in ("LER", "LER_sd", "G", "G_sd", "CCT", "CCT_sd")
+                    },
+                    "G_by_class": g_by_class(recs, s["estimator"]),
+                    "scenes_per_lamp": int(ctx.toa.shape[1]),
+                }
+            )
+        all_recs += recs
+    summary = {
+        "partitions": args.partitions,
+        "bands": "results/search/recommended_bands.json",
+        "rows": rows,
+    }
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    with (out / "records.jsonl").open("w") as fh:
+        for r in all_recs:
+            fh.write(json.dumps(r) + "\n")
+    if args.out is None:
+        update_readme_section(
+            "estimate-moon",
+            readme_text(summary),
+            heading="## Where the G error comes from: the Moon",
+        )
+    write_manifest(
+        out,
+        seed=0,
+        config={
+            "partitions": args.partitions,
+            "moon_states": {k: v for k, v in MOON_STATES.items()},
+            "estimators": list(ESTIMATORS),
+            "scored_lamps": "measured lamps only",
+            "training_lamps": "measured lamps only",
+        },
+    )
+    log(f"done: {out} ({time.time() - t0:.0f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,37 @@
+"""`experiments/estimate_moon.py`: its pure parts (the Moon-state presets,
+per-class G errors, the README table)."""
+
+import pytest
+
+from experiments import estimate_moon as em
+
+
+def test_moon_presets_are_the_search_preset_with_other_moon_states():
+    from bandopt.search import _task
+
+    assert em.preset_name(None) == "search"
+    name = em.preset_name(("full",))
+    assert _task.PRESETS[name]["moons"] == ("full",)
+    base = {k: v for k, v in _task.PRESETS["search"].items() if k != "moons"}
+    assert {k: v for k, v in _task.PRESETS[name].items() if k != "moons"} == base
+    assert em.preset_name((None,)) == "search_moon_none"
+
+
+def test_g_by_class_and_table():
+    recs = [
+        {"estimator": "inversion", "level2": "mercury", "G": 1.0},
+        {"estimator": "inversion", "level2": "mercury", "G": 3.0},
+        {"estimator": "inversion", "level2": "led_amber", "G": None},
+        {"estimator": "ridge", "level2": "mercury", "G": 9.0},
+    ]
+    assert em.g_by_class(recs, "inversion") == {"mercury": pytest.approx(2.0)}
+    row = {
+        "moon": "none",
+        "estimator": "inversion",
+        "LER": 18.3, "LER_sd": 1.0, "G": 0.333, "G_sd": 0.01, "CCT": 438.0,
+        "CCT_sd": 5.0, "G_by_class": {"mercury": 0.86},
+    }  # fmt: skip
+    text = em.readme_text({"partitions": 4, "rows": [row]})
+    want = "| none | inversion | 18.3 ± 1.0 | 0.333 ± 0.010 | 438 ± 5 | nan | 0.86 |"
+    assert want in text
+    assert "mean ± SD over 4 partitions" in text
