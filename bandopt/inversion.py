@@ -377,9 +377,11 @@ def _design(spectra, weights, cond: Conditions, basis: SurfaceBasis):
     return np.asarray(a), q
 
 
-def _chi2(yn, w, p, q):
+def _chi2(yn, w, p, q, beta=None):
     """Weighted NNLS misfit of `yn ≈ α p + β q` (α, β ≥ 0) in closed form,
-    broadcast over the leading axes of `p`, `q` (last axis: bands)."""
+    broadcast over the leading axes of `p`, `q` (last axis: bands). With
+    `beta` (a scalar, the known Moon amplitude in `yn`'s units) only `α` is
+    fitted: the misfit of `yn - β q ≈ α p`."""
 
     def dot(u, v):
         nd = max(u.ndim, v.ndim)
@@ -389,6 +391,9 @@ def _chi2(yn, w, p, q):
 
     spp, spy, syy = dot(p, p), dot(p, yn), dot(yn, yn)
     tiny = 1e-300
+    if beta is not None and q is not None:
+        sqq, spq, sqy = dot(q, q), dot(p, q), dot(q, yn)
+        return _chi2_known(spp, spy, syy, sqq, spq, sqy, beta)
     a1 = jnp.maximum(spy, 0.0) / jnp.maximum(spp, tiny)
     chi_a = syy - a1 * spy
     if q is None:
@@ -407,31 +412,49 @@ def _chi2(yn, w, p, q):
     return jnp.maximum(jnp.where(both, jnp.minimum(chi_ab, best), best), 0.0)
 
 
+def _chi2_known(spp, spy, syy, sqq, spq, sqy, beta):
+    """Misfit of `y - β q ≈ α p` (α ≥ 0, β known) from the weighted sums of
+    `_chi2`: `Σw(y-βq)² = syy - 2β sqy + β² sqq`, `Σw p(y-βq) = spy - β spq`."""
+    r_py = spy - beta * spq
+    r_yy = syy - 2.0 * beta * sqy + beta**2 * sqq
+    a1 = jnp.maximum(r_py, 0.0) / jnp.maximum(spp, 1e-300)
+    return jnp.maximum(r_yy - a1 * r_py, 0.0)
+
+
 @jax.jit
-def _score_chunk(y, cand, log_ps, a, q, log_pk, sigmas):
+def _score_chunk(y, cand, log_ps, a, q, log_pk, sigmas, moon_b=None):
     """Per pixel and relative error `σ_rel` in `sigmas (S,)`: log evidence per
     lamp (S, k) and best χ² (S,). `y (n, b)`, `cand (n, s, r+1)`, `log_ps (n, s)`."""
 
-    def one(yp, c, lps):
+    def one(yp, c, lps, b):
         m = jnp.mean(jnp.abs(yp))
-        yn = yp / jnp.where(m > 0, m, 1.0)
+        mm = jnp.where(m > 0, m, 1.0)
+        yn = yp / mm
         p = jnp.einsum("kabr,sr->ksab", a, c)
         qq = None if q is None else jnp.einsum("abr,sr->sab", q, c)[None]
+        known = b is not None and qq is not None
+        if known:  # NaN: unknown (fitted); double-where keeps gradients finite
+            is_known = jnp.isfinite(b)
+            beta = jnp.where(is_known, b, 0.0) / mm
 
         def at(sigma):
             sd = sigma * jnp.abs(yn) + SIGMA_FLOOR
             chi = _chi2(yn, 1.0 / sd**2, p, qq)  # (k, s, a)
+            if known:
+                chi = jnp.where(is_known, _chi2(yn, 1.0 / sd**2, p, qq, beta), chi)
             lw = -0.5 * chi + lps[None, :, None]
             lk = logsumexp(lw.reshape(lw.shape[0], -1), axis=1) + log_pk
             return lk, jnp.min(chi)
 
         return jax.lax.map(at, sigmas)
 
-    return jax.vmap(one)(y, cand, log_ps)
+    if moon_b is None:
+        return jax.vmap(lambda yp, c, lps: one(yp, c, lps, None))(y, cand, log_ps)
+    return jax.vmap(one)(y, cand, log_ps, moon_b)
 
 
 @jax.jit
-def _score_chunk_shared(y, p, qq, log_ps, log_pk, sigmas):
+def _score_chunk_shared(y, p, qq, log_ps, log_pk, sigmas, moon_b=None):
     """`_score_chunk` when every pixel has the same surface candidates.
 
     The weighted sums of `_chi2` are matrix products over the candidates'
@@ -477,6 +500,14 @@ def _score_chunk_shared(y, p, qq, log_ps, log_pk, sigmas):
             b1 = jnp.maximum(sqy, 0.0) / jnp.maximum(sqq, tiny)
             best = jnp.minimum(chi, syy - b1 * sqy)
             chi = jnp.where(both, jnp.minimum(chi_ab, best), best)
+            if moon_b is not None:  # known Moon amplitude per pixel (NaN: fitted)
+                is_known = jnp.isfinite(moon_b)[:, None, None]
+                mm = jnp.where(m[:, 0] > 0, m[:, 0], 1.0)
+                beta = (jnp.where(jnp.isfinite(moon_b), moon_b, 0.0) / mm)[
+                    :, None, None
+                ]
+                chi_known = _chi2_known(spp, spy, syy, sqq, spq, sqy, beta)
+                chi = jnp.where(is_known, chi_known, chi)
         chi = jnp.maximum(chi, 0.0)
         lk = logsumexp(-0.5 * chi + lps, axis=2) + log_pk[None, :]
         return lk, jnp.min(chi, axis=(1, 2))
@@ -524,9 +555,24 @@ K_BUCKET = 32
 of similar size; padded lamps have zero spectra and zero prior)."""
 
 
-def _score(y, cand, log_ps, a, q, log_pk, sigmas):
-    """Chunked, padded `_score_chunk`: (log evidence (n, S, k), χ² (n, S))."""
+def _score(y, cand, log_ps, a, q, log_pk, sigmas, moon_b=None):
+    """Chunked, padded `_score_chunk`: (log evidence (n, S, k), χ² (n, S)).
+    `moon_b` (n,): known Moon amplitudes (relative to `q`'s Moon state; NaN:
+    fitted), or None (all fitted)."""
     y = np.asarray(y, float)
+    if moon_b is not None:
+        moon_b = np.asarray(moon_b, float).reshape(-1)
+        if moon_b.shape[0] != y.shape[0]:
+            raise ValueError(
+                f"moon: {moon_b.shape[0]} amplitudes for {y.shape[0]} pixels."
+            )
+        if q is None:
+            if np.any(np.nan_to_num(moon_b, nan=0.0) != 0):
+                raise ValueError(
+                    "moon: a Moon amplitude was given but the conditions have no "
+                    "Moon term."
+                )
+            moon_b = None
     n, k = y.shape[0], a.shape[0]
     kp = -(-k // K_BUCKET) * K_BUCKET
     a = np.concatenate([a, np.zeros((kp - k, *a.shape[1:]))])
@@ -545,6 +591,11 @@ def _score(y, cand, log_ps, a, q, log_pk, sigmas):
         qq = None if q is None else jnp.einsum("abr,sr->sab", q, cand[0])[None]
         npad = -(-n // SHARED_CHUNK) * SHARED_CHUNK
         y = np.concatenate([y, np.ones((npad - n, y.shape[1]))])
+        mb = (
+            None
+            if moon_b is None
+            else np.concatenate([moon_b, np.full(npad - n, np.nan)])
+        )
         lks, chis = [], []
         for i in range(0, npad, SHARED_CHUNK):
             lk, chi = _score_chunk_shared(
@@ -554,11 +605,13 @@ def _score(y, cand, log_ps, a, q, log_pk, sigmas):
                 jnp.asarray(log_ps[0]),
                 jnp.asarray(log_pk),
                 jnp.asarray(np.asarray(sigmas, float)),
+                None if mb is None else jnp.asarray(mb[i : i + SHARED_CHUNK]),
             )
             lks.append(np.asarray(lk))
             chis.append(np.asarray(chi))
         return np.concatenate(lks)[:n, :, :k], np.concatenate(chis)[:n]
     y, cand, log_ps = padded(y, 1.0), padded(cand, 0.0), padded(log_ps, 0.0)
+    mb = None if moon_b is None else padded(moon_b, np.nan)
     cand[n:, :, 0] = 1.0
     args = (
         jnp.asarray(a),
@@ -570,7 +623,11 @@ def _score(y, cand, log_ps, a, q, log_pk, sigmas):
     for i in range(0, npad, CHUNK):
         sl = slice(i, i + CHUNK)
         lk, chi = _score_chunk(
-            jnp.asarray(y[sl]), jnp.asarray(cand[sl]), jnp.asarray(log_ps[sl]), *args
+            jnp.asarray(y[sl]),
+            jnp.asarray(cand[sl]),
+            jnp.asarray(log_ps[sl]),
+            *args,
+            None if mb is None else jnp.asarray(mb[sl]),
         )
         lks.append(np.asarray(lk))
         chis.append(np.asarray(chi))
@@ -890,32 +947,45 @@ class Inversion:
         'class'), or basis coefficients (n, r) (mode 'measured')."""
         return surface_candidates(self.basis, self.surface_mode, n, surface)
 
-    def posterior(self, radiance, surface=None, sigmas=None, *, evidence=False):
+    def posterior(
+        self, radiance, surface=None, sigmas=None, *, evidence=False, moon=None
+    ):
         """Posterior over prior lamps (n, k) and reduced χ² (n,); with `sigmas`
         (S,) one of each per `σ_rel`: (n, S, k), (n, S). With `evidence`, also
         the log marginal likelihood of each pixel's mean-normalised band
-        radiances under the prior, (n,) or (n, S) (`log_evidence`)."""
+        radiances under the prior, (n,) or (n, S) (`log_evidence`).
+
+        `moon` (n,): the Moon's brightness when it is known (from the time and
+        place of the acquisition), relative to the conditions' Moon state
+        (`Conditions.moon`: 0 moonless, 1 that state); NaN where unknown.
+        Known, it is not fitted. Default None: fitted for every pixel."""
         y = np.atleast_2d(np.asarray(radiance, float))
         cand, lps = self.candidates(y.shape[0], surface)
         a, q = self.design
         sig = [self.sigma_rel] if sigmas is None else list(sigmas)
-        lk, chi = _score(y, cand, lps, a, q, self.prior.log_prior, sig)
+        lk, chi = _score(y, cand, lps, a, q, self.prior.log_prior, sig, moon)
         norm = logsumexp(lk, axis=-1, keepdims=True)
         post = np.exp(lk - norm)
-        red = chi / max(self._dof(), 1)
+        dof = np.full(y.shape[0], max(self._dof(), 1), float)
+        if moon is not None:  # a known Moon amplitude is not a fitted parameter
+            known = np.isfinite(np.asarray(moon, float))
+            dof = np.where(known, max(self.n_bands - 1, 1), dof)
+        red = chi / (dof[:, None] if chi.ndim == 2 else dof)
         out = (post, red)
         if evidence:
             out += (log_evidence(norm[..., 0], y, sig),)
         return tuple(x[:, 0] for x in out) if sigmas is None else out
 
-    def reconstruct(self, radiance, surface=None) -> np.ndarray:
-        """Posterior-mean lamp spectrum per lumen, (n, w) [W nm⁻¹ lm⁻¹]."""
-        post, _ = self.posterior(radiance, surface)
+    def reconstruct(self, radiance, surface=None, moon=None) -> np.ndarray:
+        """Posterior-mean lamp spectrum per lumen, (n, w) [W nm⁻¹ lm⁻¹]
+        (`moon`: known Moon brightness per pixel, see `posterior`)."""
+        post, _ = self.posterior(radiance, surface, moon=moon)
         return post @ self.prior.spectra
 
-    def predict(self, radiance, surface=None) -> InversionResult:
-        """Invert band radiances (n, b) (any brightness)."""
-        post, misfit = self.posterior(radiance, surface)
+    def predict(self, radiance, surface=None, moon=None) -> InversionResult:
+        """Invert band radiances (n, b) (any brightness; `moon`: known Moon
+        brightness per pixel, see `posterior`)."""
+        post, misfit = self.posterior(radiance, surface, moon=moon)
         return _result(self, post, misfit)
 
 
@@ -1054,6 +1124,7 @@ def fit_inversion(
     modelled_classes: Sequence[str] = MODELLED_CLASSES,
     modelled_seed: int = 0,
     sigma_rule: str = "error",
+    row_moon=None,
 ) -> Inversion:
     """Fit an inversion on `train_lamps` (indices into `lamps`).
 
@@ -1076,7 +1147,11 @@ def fit_inversion(
 
     `sigma_rule` (`SIGMA_RULES`): how `σ_rel` is chosen on the inner folds,
     by held-out metric error (default) or by held-out log evidence;
-    `diagnostics` holds both criteria per candidate."""
+    `diagnostics` holds both criteria per candidate.
+
+    `row_moon` (N,): the Moon's brightness per row when known (see
+    `Inversion.posterior`), used on the inner folds; pass the test pixels'
+    to `predict` too. Default None: fitted."""
     if sigma_rule not in SIGMA_RULES:
         raise ValueError(
             f"sigma_rule {sigma_rule!r}: expected one of {SIGMA_RULES}."
@@ -1141,7 +1216,11 @@ def fit_inversion(
         rows = rows_of(va)
         inv = make(lamps.take(tr), sigma_grid[0], modelled(tr)[0])
         posts, misfits, lev = inv.posterior(
-            radiance[rows], surf(rows), sigmas=sigma_grid, evidence=True
+            radiance[rows],
+            surf(rows),
+            sigmas=sigma_grid,
+            evidence=True,
+            moon=None if row_moon is None else np.asarray(row_moon, float)[rows],
         )
         w = class_balanced_weights(l2[va])
         rl = row_lamp[rows]
@@ -1205,6 +1284,7 @@ def fit_inversion(
         diagnostics={
             "sigma_rel": best,
             "sigma_rule": sigma_rule,
+            "moon": "fitted" if row_moon is None else "known per pixel",
             "inner_scores": {str(s): float(np.mean(v)) for s, v in scores.items()},
             "inner_log_evidence": {
                 str(s): float(np.mean(v)) for s, v in evid.items()
@@ -1236,6 +1316,11 @@ MODELLED_ESTIMATORS = ("inversion+models", "ridge+models", "kernel+models")
 """`cross_validate` estimators that train on modelled lamps too: the inversion
 with them in its prior, the ridge and kernel ridge with their scenes among
 the training rows (`augment_with_modelled`)."""
+
+MOON_ESTIMATOR = "inversion-moon"
+"""`cross_validate` estimator: the inversion told each pixel's Moon brightness
+(`context_moon`; known from the acquisition's time and place) instead of
+fitting it."""
 
 EVIDENCE_ESTIMATOR = "inversion-evidence"
 """`cross_validate` estimator: the inversion with `σ_rel` chosen by held-out
@@ -1404,6 +1489,26 @@ def context_setup(ctx):
     return _cached_setup(ctx)[:4]
 
 
+def context_moon(ctx) -> np.ndarray:
+    """The Moon's brightness in each row of a `search.Context`, relative to the
+    inversion's Moon state (`Conditions.from_scenarios`: the brightest), (N,):
+    0 moonless, 1 that state, else the ratio of the states' moonlit-ground
+    irradiance (same shape assumed; exact for none/full). What an analyst
+    knows from the acquisition's time and place."""
+    scen = context_scenarios(ctx)
+    f = scen.factors
+    q = ctx.toa.shape[1]
+    if f.moon_ground is None:
+        return np.zeros(q * ctx.table.n_lamps)
+    mg = np.asarray(f.moon_ground)  # (a, m, w)
+    tot = mg.sum(axis=(0, 2))
+    amp = tot / tot.max() if tot.max() > 0 else np.zeros_like(tot)
+    n_m = mg.shape[1]
+    n_c = len(scen.class_labels)
+    per_scene = amp[(np.arange(q) // n_c) % n_m]
+    return np.tile(per_scene, ctx.table.n_lamps)
+
+
 def context_scenarios(ctx):
     """The `scene.ScenarioSet` of a `search.Context`'s scenes, lit by its first
     lamp (`ScenarioSet.with_lamps` lights them with others); cached."""
@@ -1525,7 +1630,13 @@ def cross_validate(
         rows = np.flatnonzero(np.isin(row_lamp, s.test))
         preds, model_info = {}, {}
         for name in estimators:
-            if name in ("inversion", "inversion+models", EVIDENCE_ESTIMATOR):
+            if name in (
+                "inversion",
+                "inversion+models",
+                EVIDENCE_ESTIMATOR,
+                MOON_ESTIMATOR,
+            ):
+                moon_rows = context_moon(ctx) if name == MOON_ESTIMATOR else None
                 n_model = modelled_per_class if name == "inversion+models" else 0
                 for mode in surface_modes:
                     si = surf_in[mode]
@@ -1547,6 +1658,7 @@ def cross_validate(
                         sigma_rule=(
                             "evidence" if name == EVIDENCE_ESTIMATOR else "error"
                         ),
+                        row_moon=moon_rows,
                     )
                     sub = (
                         None
@@ -1557,7 +1669,8 @@ def cross_validate(
                             else [si[i] for i in rows]
                         )
                     )
-                    preds[(name, mode)] = (inv.predict(rad[rows], sub), inv)
+                    moon_sub = None if moon_rows is None else moon_rows[rows]
+                    preds[(name, mode)] = (inv.predict(rad[rows], sub, moon_sub), inv)
             elif name == "ridge":
                 est = fit_estimator(rad, ctx.table, s.train, inner)
                 preds[("ridge", "unknown")] = (np.asarray(est.predict(rad[rows])), None)
@@ -1596,7 +1709,8 @@ def cross_validate(
             else:
                 raise ValueError(
                     f"estimator {name!r}: expected one of "
-                    f"{(*ESTIMATORS, *MODELLED_ESTIMATORS, EVIDENCE_ESTIMATOR)}."
+                    f"{(*ESTIMATORS, *MODELLED_ESTIMATORS)}"
+                    f" or {(EVIDENCE_ESTIMATOR, MOON_ESTIMATOR)}."
                 )
         for (name, mode), (p, inv) in preds.items():
             res = p if isinstance(p, InversionResult) else None

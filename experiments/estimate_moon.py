@@ -6,7 +6,9 @@ photon noise) and finds G 0.84; the search's own judge (8 scenes per lamp at
 P4, photon noise, no Moon) finds 0.37 for the same bands and estimator. This
 splits the preset by Moon state, on the same lamp partitions and folds: the
 same scenes without the Moon, and with the full Moon only. Inversion (surface
-unknown) and the bounded ridge, recommended bands, measured lamps only.
+unknown) fitting the Moon's brightness, the inversion told it (known from the
+acquisition's time and place: `inversion-moon`), and the bounded ridge;
+recommended bands, measured lamps only.
 
     python -m experiments.estimate_moon [--partitions 4] [--out DIR]
 
@@ -30,7 +32,10 @@ MOON_STATES = {
     "full": ("full",),
 }
 """Moon states of each scene set (None: the preset's own, Moon none and full)."""
-ESTIMATORS = ("inversion", "ridge")
+ESTIMATORS = ("inversion", "inversion-moon", "ridge")
+"""The inversion fitting the Moon's brightness (as `make estimate`), the
+inversion told it (`bandopt.inversion.MOON_ESTIMATOR`: known from the time
+and place of the acquisition), and the bounded ridge."""
 
 
 def log(msg: str) -> None:

@@ -1,0 +1,112 @@
+"""The inversion told the Moon's brightness (known from the acquisition's time
+and place) instead of fitting it: `Inversion.posterior(moon=...)`,
+`fit_inversion(row_moon=...)`, `context_moon`."""
+
+import dataclasses
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from bandopt import inversion as inv_mod
+from bandopt.scene import build_scenarios
+from bandopt.sensor import BandSet
+
+
+GRID = np.arange(380.0, 901.0)
+FIVE = BandSet.from_physical(
+    np.array([450.0, 530.0, 600.0, 680.0, 820.0]),
+    np.array([60.0, 60.0, 50.0, 60.0, 80.0]),
+    6.0,
+    name="t",
+)
+
+
+def test_known_amplitude_misfit_is_least_squares_with_the_moon_subtracted():
+    rng = np.random.default_rng(1)
+    yn, w = rng.random(5) + 0.5, rng.random(5) + 0.2
+    p, q = rng.random((3, 5)), rng.random((3, 5))
+    for beta in (0.0, 0.3, 2.0):
+        got = np.asarray(inv_mod._chi2(jnp.asarray(yn), jnp.asarray(w), p, q, beta))
+        for k in range(3):
+            r = yn - beta * q[k]
+            a = max(np.sum(w * p[k] * r) / np.sum(w * p[k] ** 2), 0.0)
+            want = np.sum(w * (r - a * p[k]) ** 2)
+            assert got[k] == pytest.approx(want, rel=1e-9, abs=1e-12)
+
+
+@pytest.fixture(scope="module")
+def moonlit():
+    """Lamps, a scenario set with a moonless and a full-Moon state, its
+    conditions, band weights, pixels and their Moon state."""
+    lamps = inv_mod.library_lamps(GRID, scored=True).take(range(0, 120, 6))
+    scen = build_scenarios(
+        lamps=[lamps.ids[0]],
+        surfaces=("asphalt", "grass"),
+        atmospheres=(("midlatitude_summer", "urban", 23.0),),
+        moons=(None, "full"),
+        classes=("P6",),
+    )
+    cond = inv_mod.Conditions.from_scenarios(scen)
+    w = inv_mod.band_weights_on(FIVE, GRID)
+    rows, moon, types = [], [], []
+    for i, name in enumerate(("asphalt", "grass")):
+        lit = scen.with_lamps(list(lamps.ids[:8]), lamps.spectra[:8])
+        toa = np.asarray(inv_mod.dense_spectra(lit))[:, i, 0]  # (l, m, c, w)
+        for j, m in enumerate((0.0, 1.0)):
+            rows.append(toa[:, j, 0] @ w.T)
+            moon += [m] * 8
+            types += [name] * 8
+    return lamps, cond, w, np.vstack(rows), np.asarray(moon), types
+
+
+@pytest.mark.parametrize("mode", ["unknown", "class"])
+def test_moonless_pixels_told_no_moon_match_an_inversion_without_the_moon(
+    moonlit, mode
+):
+    """Told 'no Moon', a pixel is scored exactly as by an inversion whose
+    conditions have no Moon term; told nothing (NaN) as before; and knowing
+    the Moon changes the moonlit pixels' scores."""
+    lamps, cond, w, rad, moon, types = moonlit
+    basis = inv_mod.surface_basis(GRID)
+    inv = inv_mod.build_inversion(lamps, w, cond, basis, mode)
+    no_moon = dataclasses.replace(cond, moon=None, path=None)
+    inv0 = inv_mod.build_inversion(lamps, w, no_moon, basis, mode)
+    surf = types if mode == "class" else None
+    dark = moon == 0
+    told = inv.posterior(rad, surf, moon=np.where(dark, 0.0, np.nan))
+    surf_dark = None if surf is None else list(np.array(surf)[dark])
+    ref = inv0.posterior(rad[dark], surf_dark)
+    np.testing.assert_allclose(told[0][dark], ref[0], rtol=1e-8, atol=1e-12)
+    np.testing.assert_allclose(told[1][dark], ref[1], rtol=1e-8, atol=1e-12)
+    free = inv.posterior(rad, surf)
+    np.testing.assert_array_equal(told[0][~dark], free[0][~dark])  # NaN: fitted
+    np.testing.assert_array_equal(
+        inv.posterior(rad, surf, moon=np.full(len(rad), np.nan))[0], free[0]
+    )
+    known = inv.posterior(rad, surf, moon=moon)
+    assert np.abs(known[0][~dark] - free[0][~dark]).max() > 1e-3
+    with pytest.raises(ValueError, match="amplitudes for"):
+        inv.posterior(rad, surf, moon=moon[:3])
+    with pytest.raises(ValueError, match="no Moon term"):
+        inv0.posterior(rad, surf, moon=moon)
+
+
+def test_context_moon_follows_the_scene_order():
+    from bandopt.forward import scenario_table
+    from bandopt.search import _task, get_context
+
+    preset = dict(surfaces=("asphalt",), moons=(None, "full"), classes=("P4", "P6"))
+    _task.PRESETS.setdefault("test_moon", preset)
+    ctx = get_context("test_moon", None, 0, "none")
+    amp = inv_mod.context_moon(ctx)
+    sc = ctx.config["scenarios"]
+    table = scenario_table(
+        build_scenarios(
+            scored_only=True, surfaces=sc["surfaces"], atmospheres=("none",),
+            moons=tuple(sc["moons"]), classes=tuple(sc["classes"]),
+        )
+    )  # fmt: skip
+    full = np.array([str(m).startswith("full") for m in table.moon])
+    assert full.any() and not full.all()
+    np.testing.assert_array_equal(amp, np.where(full, 1.0, 0.0))
