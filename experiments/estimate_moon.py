@@ -32,6 +32,9 @@ MOON_STATES = {
     "full": ("full",),
 }
 """Moon states of each scene set (None: the preset's own, Moon none and full)."""
+BAND_SETS = ("recommended", "sdgsat-1", "nightsat", "viirs-dnb")
+"""Band sets scored on the scenes of `make estimate` (the Moon split: only
+the recommended bands)."""
 ESTIMATORS = ("inversion", "inversion-moon", "ridge")
 """The inversion fitting the Moon's brightness (as `make estimate`), the
 inversion told it (`bandopt.inversion.MOON_ESTIMATOR`: known from the time
@@ -71,14 +74,17 @@ def readme_text(summary: dict) -> str:
         "## Where the G error comes from: the Moon (`results/estimate_moon/`, "
         "`make estimate-moon`)",
         "",
-        "The recommended bands on the scenes of `make estimate` (search preset, no "
-        "photon noise), split by Moon state; same lamp partitions and folds; "
-        f"class-balanced MAE, mean ± SD over {summary['partitions']} partitions; "
-        "measured lamps only. Generated from `summary.json`.",
+        "The scenes of `make estimate` (search preset, no photon noise), and for "
+        "the recommended bands the same scenes split by Moon state; same lamp "
+        "partitions and folds; class-balanced MAE, mean ± SD over "
+        f"{summary['partitions']} partitions; measured lamps only. "
+        "`inversion` fits the Moon's brightness, `inversion-moon` is told it "
+        "(known from the acquisition's time and place). Generated from "
+        "`summary.json`.",
         "",
-        "| Moon | estimator | LER [lm/W] | G | CCT [K] | G: amber LED | G: mercury "
-        "| G: metal halide |",
-        "|---|---|---|---|---|---|---|---|",
+        "| Moon | band set | estimator | LER [lm/W] | G | CCT [K] | G: amber LED "
+        "| G: mercury | G: metal halide |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for row in summary["rows"]:
         g = row["G_by_class"]
@@ -91,9 +97,31 @@ def readme_text(summary: dict) -> str:
             for c in ("led_amber", "mercury", "metal_halide")
         )
         lines.append(
-            f"| {row['moon']} | {row['estimator']} | {cell('LER', 1)} | "
+            f"| {row['moon']} | {row.get('band_set', 'recommended')} | "
+            f"{row['estimator']} | {cell('LER', 1)} | "
             f"{cell('G', 3)} | {cell('CCT', 0)} | {per_class} |"
         )
+    if summary.get("paired"):
+        lines += [
+            "",
+            "Paired by partition on the scenes of `make estimate` (positive = the "
+            "first is worse): reference sensor minus recommended, same estimator; "
+            "and `inversion-moon` minus `inversion`, same band set.",
+            "",
+            "| compared | estimator | LER [lm/W] | G | CCT [K] |",
+            "|---|---|---|---|---|",
+        ]
+        for p in summary["paired"]:
+            what = (
+                f"{p['band_set']} − {p['vs']}"
+                if p["estimator"] != "inversion-moon" or p["vs"] != "inversion"
+                else f"{p['band_set']}: inversion-moon − inversion"
+            )
+            cells = []
+            for m, d in (("LER", 1), ("G", 3), ("CCT", 0)):
+                v, sd = p.get(f"{m}_diff"), p.get(f"{m}_diff_sd")
+                cells.append("n/a" if v is None else f"{v:+.{d}f} ± {(sd or 0):.{d}f}")
+            lines.append(f"| {what} | {p['estimator']} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -120,38 +148,55 @@ def main(argv=None) -> int:
 
     out = Path(args.out or "results/estimate_moon")
     out.mkdir(parents=True, exist_ok=True)
-    bands = band_set("recommended")
-    rows, all_recs = [], []
+    rows, all_recs, paired = [], [], []
     t0 = time.time()
     for label, moons in MOON_STATES.items():
+        names = BAND_SETS if moons is None else ("recommended",)
         recs = []
         for p in range(args.partitions):
             ctx = get_context(preset_name(moons), None, p, "auto")
-            r = inv_mod.cross_validate(
-                ctx, bands, estimators=ESTIMATORS, surface_modes=("unknown",), seed=p
-            )
-            for x in r:
-                x.update(partition=p, band_set="recommended", moon=label)
-            recs += r
-            log(f"Moon {label}, partition {p}: {time.time() - t0:.0f} s")
-        for s in inv_mod.summarise(recs):
+            for name in names:
+                r = inv_mod.cross_validate(
+                    ctx,
+                    band_set(name),
+                    estimators=ESTIMATORS,
+                    surface_modes=("unknown",),
+                    seed=p,
+                )
+                for x in r:
+                    x.update(partition=p, band_set=name, moon=label)
+                recs += r
+                log(f"Moon {label}, partition {p}, {name}: {time.time() - t0:.0f} s")
+        summ = inv_mod.summarise(recs)
+        for s in summ:
             rows.append(
                 {
                     "moon": label,
+                    "band_set": s["band_set"],
                     "estimator": s["estimator"],
                     **{
                         k: s.get(k)
                         for k in ("LER", "LER_sd", "G", "G_sd", "CCT", "CCT_sd")
                     },
-                    "G_by_class": g_by_class(recs, s["estimator"]),
+                    "G_by_class": g_by_class(
+                        [r for r in recs if r["band_set"] == s["band_set"]],
+                        s["estimator"],
+                    ),
                     "scenes_per_lamp": int(ctx.toa.shape[1]),
                 }
+            )
+        if moons is None:
+            for name in names[1:]:
+                paired += inv_mod.paired_differences(summ, "recommended", name)
+            paired += inv_mod.estimator_differences(
+                summ, [(inv_mod.MOON_ESTIMATOR, "inversion")]
             )
         all_recs += recs
     summary = {
         "partitions": args.partitions,
-        "bands": "results/search/recommended_bands.json",
+        "bands": {"recommended": "results/search/recommended_bands.json"},
         "rows": rows,
+        "paired": paired,
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     with (out / "records.jsonl").open("w") as fh:

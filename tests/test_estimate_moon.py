@@ -31,7 +31,22 @@ def test_g_by_class_and_table():
         "LER": 18.3, "LER_sd": 1.0, "G": 0.333, "G_sd": 0.01, "CCT": 438.0,
         "CCT_sd": 5.0, "G_by_class": {"mercury": 0.86},
     }  # fmt: skip
-    text = em.readme_text({"partitions": 4, "rows": [row]})
-    want = "| none | inversion | 18.3 ± 1.0 | 0.333 ± 0.010 | 438 ± 5 | nan | 0.86 |"
+    paired = [
+        {"band_set": "sdgsat-1", "vs": "recommended", "estimator": "inversion-moon",
+         "LER_diff": 2.0, "LER_diff_sd": 0.5},
+        {"band_set": "recommended", "vs": "inversion", "estimator": "inversion-moon",
+         "LER_diff": -9.0, "LER_diff_sd": 0.4, "G_diff": -0.46, "G_diff_sd": 0.03},
+    ]  # fmt: skip
+    text = em.readme_text({"partitions": 4, "rows": [row], "paired": paired})
+    want = (
+        "| none | recommended | inversion | 18.3 ± 1.0 | 0.333 ± 0.010 | 438 ± 5 "
+        "| nan | 0.86 |"
+    )
     assert want in text
+    ref = "| sdgsat-1 − recommended | inversion-moon | +2.0 ± 0.5 | n/a | n/a |"
+    assert ref in text
+    assert (
+        "| recommended: inversion-moon − inversion | inversion-moon | -9.0 ± 0.4 "
+        "| -0.460 ± 0.030 | n/a |"
+    ) in text
     assert "mean ± SD over 4 partitions" in text
