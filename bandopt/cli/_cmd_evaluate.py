@@ -234,6 +234,9 @@ def _fit(args, ctx, bands, mode):
             row_surface=row_surface,
             always=always,
             modelled_per_class=args.modelled_per_class,
+            # the Moon's brightness of every training scene is known (as it is
+            # for an acquisition), so it is told, not fitted
+            row_moon=inv_mod.context_moon(ctx),
         )
         added = inv.diagnostics["modelled_lamps"]["added"]
         n_model = sum(added.values())
@@ -246,8 +249,9 @@ def _fit(args, ctx, bands, mode):
             )
         desc = (
             f"physics-based inversion (bandopt.inversion), prior over {prior}, "
-            f"surface {mode}; sigma_rel {inv.sigma_rel:g}, 90 % intervals "
-            "split-conformal on lamp-grouped folds"
+            f"surface {mode}; Moon brightness told (training scenes: their own; "
+            f"your scene: moonless), not fitted; sigma_rel {inv.sigma_rel:g}, 90 % "
+            "intervals split-conformal on lamp-grouped folds"
         )
         return inv, basis, desc
     fit = fit_estimator if args.estimator == "ridge" else fit_kernel_estimator
@@ -384,7 +388,8 @@ def run(args) -> int:
             know = np.repeat(basis.coords(refl[None]), len(band_rad), axis=0)
         else:
             know = None
-        res = model.predict(band_rad, know)
+        # the evaluation scene is moonless (SCENE) and the inversion is told so
+        res = model.predict(band_rad, know, moon=np.zeros(len(band_rad)))
         est_rows = [res.row(i) for i in range(len(band_rad))]
     else:
         from ..classify import predict_lamp_types
