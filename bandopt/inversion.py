@@ -1931,6 +1931,7 @@ def leave_one_class_out(
     seed: int = 0,
     modelled_per_class: int = 0,
     modelled_classes: Sequence[str] = MODELLED_CLASSES,
+    moon_known: bool = False,
 ):
     """Unseen lamp types: for every scored level-2 class, fit on all other
     classes (inner folds: 2 class-stratified lamp folds of those) and score its
@@ -1939,7 +1940,10 @@ def leave_one_class_out(
     `modelled_per_class` > 0: modelled lamps in every prior, calibrated on that
     fit's training lamps only (`fit_inversion`), so the held-out class never
     gets any (its lamps are not training lamps); the records then say
-    `modelled_per_class` and the classes that got them. Default 0: as before."""
+    `modelled_per_class` and the classes that got them. Default 0: as before.
+
+    `moon_known`: the inversion is told each row's Moon brightness
+    (`context_moon`) instead of fitting it (`MOON_ESTIMATOR`)."""
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
     rad = ctx.radiance(bands)
@@ -1948,6 +1952,7 @@ def leave_one_class_out(
     classes = np.asarray(lamps.level2, dtype=object)
     basis = _basis(grid)
     si = _surface_knowledge(row_types, basis, seed)[surface_mode]
+    moon_rows = context_moon(ctx) if moon_known else None
     out = []
     for c in sorted(set(classes)):
         test = np.flatnonzero(classes == c)
@@ -1969,6 +1974,7 @@ def leave_one_class_out(
             modelled_per_class=modelled_per_class,
             modelled_classes=modelled_classes,
             modelled_seed=seed,
+            row_moon=moon_rows,
         )
         _check_never_scored(inv, [lamps.ids[i] for i in test])
         if c in inv.diagnostics["modelled_lamps"]["added"]:
@@ -1979,7 +1985,8 @@ def leave_one_class_out(
             if si is None
             else (si[rows] if isinstance(si, np.ndarray) else [si[i] for i in rows])
         )
-        res = inv.predict(rad[rows], sub)
+        moon_sub = None if moon_rows is None else moon_rows[rows]
+        res = inv.predict(rad[rows], sub, moon_sub)
         for lamp in test:
             sel = row_lamp[rows] == lamp
             t, v = ctx.table.truth[lamp], ctx.table.valid[lamp]

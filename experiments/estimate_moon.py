@@ -13,7 +13,9 @@ recommended bands, measured lamps only.
     python -m experiments.estimate_moon [--partitions 4] [--out DIR]
 
 Writes `summary.json` (class-balanced MAE per Moon state and estimator, mean
-± SD over partitions, per class for G), `records.jsonl`, `manifest.json`
+± SD over partitions, per class for G; paired differences; the unseen-types
+study of `make estimate` with the Moon fitted and told), `records.jsonl`,
+`manifest.json`
 and the `estimate-moon` section of `results/README.md` (default output only).
 """
 
@@ -122,6 +124,16 @@ def readme_text(summary: dict) -> str:
                 v, sd = p.get(f"{m}_diff"), p.get(f"{m}_diff_sd")
                 cells.append("n/a" if v is None else f"{v:+.{d}f} ± {(sd or 0):.{d}f}")
             lines.append(f"| {what} | {p['estimator']} | " + " | ".join(cells) + " |")
+    for label, u in (summary.get("unseen_types") or {}).items():
+        o = u["overall"]
+        lines += [
+            "",
+            f"Unseen lamp types (recommended bands, `{label}`, partition 0; each "
+            "scored class held out in turn): coverage LER "
+            f"{o['LER_covered']:.2f}, G {o['G_covered']:.2f}, CCT "
+            f"{o['CCT_covered']:.2f}; level-1 type right {o['level1_correct']:.2f}; "
+            f"unexplained {o['unexplained']:.2f}; out of range {o['out_of_range']}.",
+        ]
     return "\n".join(lines) + "\n"
 
 
@@ -192,8 +204,20 @@ def main(argv=None) -> int:
                 summ, [(inv_mod.MOON_ESTIMATOR, "inversion")]
             )
         all_recs += recs
+    # unseen lamp types (each scored class held out), recommended bands
+    from experiments.estimate import _by_class, _overall
+
+    unseen = {}
+    ctx = get_context("search", None, 0, "auto")
+    for label, known in (("inversion", False), ("inversion-moon", True)):
+        recs = inv_mod.leave_one_class_out(
+            ctx, band_set("recommended"), moon_known=known
+        )
+        unseen[label] = {"by_class": _by_class(recs), "overall": _overall(recs)}
+        log(f"unseen types, {label}: {time.time() - t0:.0f} s")
     summary = {
         "partitions": args.partitions,
+        "unseen_types": unseen,
         "bands": {"recommended": "results/search/recommended_bands.json"},
         "rows": rows,
         "paired": paired,

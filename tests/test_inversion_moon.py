@@ -110,3 +110,53 @@ def test_context_moon_follows_the_scene_order():
     full = np.array([str(m).startswith("full") for m in table.moon])
     assert full.any() and not full.all()
     np.testing.assert_array_equal(amp, np.where(full, 1.0, 0.0))
+
+
+@pytest.fixture(scope="module")
+def moon_ctx():
+    from bandopt.search import _task, get_context
+
+    preset = dict(surfaces=("asphalt",), moons=(None, "full"), classes=("P4", "P6"))
+    _task.PRESETS.setdefault("test_moon", preset)
+    return get_context("test_moon", None, 0, "none")
+
+
+def test_cross_validate_tells_the_moon_only_to_inversion_moon(moon_ctx, monkeypatch):
+    seen = []
+    real = inv_mod.fit_inversion
+
+    def spy(*a, **kw):
+        seen.append(kw.get("row_moon"))
+        return real(*a, **kw)
+
+    monkeypatch.setattr(inv_mod, "fit_inversion", spy)
+    recs = inv_mod.cross_validate(
+        moon_ctx, FIVE, estimators=("inversion", inv_mod.MOON_ESTIMATOR), folds=[0]
+    )
+    assert seen[0] is None
+    np.testing.assert_array_equal(seen[1], inv_mod.context_moon(moon_ctx))
+    by = {}
+    for r in recs:
+        by.setdefault(r["estimator"], []).append(r)
+    assert set(by) == {"inversion", inv_mod.MOON_ESTIMATOR}
+    assert all(r["out_of_range"] == 0 for r in recs)
+    assert [r["lamp"] for r in by["inversion"]] == [
+        r["lamp"] for r in by[inv_mod.MOON_ESTIMATOR]
+    ]
+    assert any(
+        a["G"] != b["G"]
+        for a, b in zip(by["inversion"], by[inv_mod.MOON_ESTIMATOR], strict=True)
+        if a["G"] is not None
+    )
+
+    class StopError(Exception):
+        pass
+
+    def stop(*a, **kw):
+        seen.append(kw.get("row_moon"))
+        raise StopError
+
+    monkeypatch.setattr(inv_mod, "fit_inversion", stop)
+    with pytest.raises(StopError):
+        inv_mod.leave_one_class_out(moon_ctx, FIVE, moon_known=True)
+    np.testing.assert_array_equal(seen[-1], inv_mod.context_moon(moon_ctx))
