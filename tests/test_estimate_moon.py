@@ -57,8 +57,7 @@ def test_unseen_types_lines():
         "LER_covered": 0.8, "G_covered": 0.81, "CCT_covered": 0.85,
         "level1_correct": 0.4, "unexplained": 0.02, "out_of_range": 0,
     }  # fmt: skip
-    text = em.readme_text(
-        {"partitions": 4, "rows": [], "unseen_types": {"inversion-moon": {"overall": o}}}
-    )
+    unseen = {"inversion-moon": {"overall": o}}
+    text = em.readme_text({"partitions": 4, "rows": [], "unseen_types": unseen})
     assert "Unseen lamp types (recommended bands, `inversion-moon`" in text
     assert "level-1 type right 0.40" in text and "out of range 0" in text
