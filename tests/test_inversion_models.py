@@ -326,12 +326,15 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
     # what the stub ignores: the surface prior and the Sentinel-2 retrieval
     monkeypatch.setattr(inv_mod, "surface_basis", inv_mod._basis)
     monkeypatch.setattr(inv_mod, "measured_surfaces", lambda *a, **k: None)
+    moon = np.zeros(len(row_lamp))  # the fake context's rows are moonless
+    monkeypatch.setattr(inv_mod, "context_moon", lambda c: moon)
     ctx = _fake_context(case)
     ctx.table.n_lamps = len(lamps.ids)
     for n in (0, 4):
         args = types.SimpleNamespace(estimator="inversion", modelled_per_class=n)
         _, _, desc = _cmd_evaluate._fit(args, ctx, FIVE, "unknown")
         assert seen["modelled_per_class"] == n
+        assert seen["row_moon"] is moon  # told the Moon, not fitted
         if n:
             assert "3 measured library lamps and 4 modelled lamps" in desc
             assert "4 per class of mercury" in desc
