@@ -352,3 +352,33 @@ def test_surface_types_of_samples_and_mixes():
     )  # fmt: skip
     with pytest.raises(ValueError, match="mix of two types"):
         surface_types(mix)
+
+
+# ------------------------------------------------------------------------------
+# CLI
+
+
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (["--surface-knowledge", "class"], ["--surface-knowledge", "inversion"]),
+        (["--modelled-per-class", "-1"], ["--modelled-per-class", ">= 0"]),
+    ],
+)
+def test_cli_refuses_bad_combinations(capsys, argv, words):
+    from bandopt.cli import main
+
+    rc = main(["classify", "--bands", "sdgsat-1", "--scenarios", "quick", *argv])
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert all(w in err for w in words), err
+
+
+def test_cli_help_gives_defaults(capsys):
+    from bandopt.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["classify", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "--modelled-per-class N" in out and "Default 0" in out
+    assert "--surface-knowledge {unknown,class,measured}" in out
