@@ -67,6 +67,40 @@ class ModelledRows:
         return self.table.labels(level)
 
 
+TABLE_CACHE_SIZE = 9
+"""Modelled-lamp tables kept per process (`_modelled_table`): one lamp
+partition's 3 outer x (2 inner + 1) training sets, so scoring several band
+sets on the same partition builds each set's scenes once (~30 MB each for 20
+lamps on the 336 scenes of the evaluation table)."""
+
+_TABLES: dict = {}
+
+
+def _modelled_table(scen, train_ids, n_per_class, classes, seed):
+    """(lamps, info, their ScenarioTable or None) of `modelled_lamps(train_ids,
+    ...)` under the scenes of `scen`; the last `TABLE_CACHE_SIZE` kept (the
+    key holds the scenario set itself, compared by identity)."""
+    key = (id(scen), train_ids, n_per_class, classes, seed)
+    hit = _TABLES.get(key)
+    if hit is not None and hit[0] is scen:
+        return hit[1]
+    grid = np.asarray(scen.factors.wavelength_nm)
+    lamps, info = inv_mod.modelled_lamps(
+        list(train_ids), grid, n_per_class, classes=list(classes), seed=seed
+    )
+    mtable = None
+    if lamps.ids:
+        mtable = scenario_table(
+            scen.with_lamps(lamps.ids, lamps.spectra),
+            level1=list(lamps.level1),
+            level2=list(lamps.level2),
+        )
+    while len(_TABLES) >= TABLE_CACHE_SIZE:
+        _TABLES.pop(next(iter(_TABLES)))
+    _TABLES[key] = (scen, (lamps, info, mtable))
+    return lamps, info, mtable
+
+
 def modelled_rows(
     table: ScenarioTable,
     train_lamps,
@@ -107,8 +141,8 @@ def modelled_rows(
             "(table.scenarios); rebuild it with scenario_table."
         )
     train_ids = [table.lamp_ids[i] for i in np.asarray(train_lamps, int)]
-    lamps, info = inv_mod.modelled_lamps(
-        train_ids, table.wavelength_nm, n_per_class, classes=classes, seed=seed
+    lamps, info, mtable = _modelled_table(
+        scen, tuple(train_ids), int(n_per_class), tuple(classes), int(seed)
     )
     leaked = {
         c: sorted(set(cal) - set(train_ids))
@@ -125,11 +159,6 @@ def modelled_rows(
     unknown = sorted(set(lamps.level2) - set(table.level2))
     if unknown:
         raise RuntimeError(f"modelled lamps of classes {unknown} the table lacks.")
-    mtable = scenario_table(
-        scen.with_lamps(lamps.ids, lamps.spectra),
-        level1=list(lamps.level1),
-        level2=list(lamps.level2),
-    )
     rad = mtable.band_radiance(
         bands, noise=noise, params=params, seed=modelled_noise_key(seed, stream)
     )
