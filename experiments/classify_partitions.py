@@ -97,9 +97,12 @@ def plan_units(
     one_band_inversion: bool = False,
     ours: Sequence[str] = OURS,
 ) -> tuple[list[tuple[int, str, str]], list[dict]]:
-    """The (partition, design, estimator) units to score, partition by
-    partition, and the units left out with the reason. `designs`: name ->
-    band count."""
+    """The (partition, design, estimator) units to score and the units left
+    out with the reason. `designs`: name -> band count. Order: the KNN units
+    (seconds each) of every partition first, then the inversion's (minutes
+    each), then the surface-knowledge modes, each stage partition by
+    partition, so a run cut short has the cheap estimators complete over
+    every partition."""
     run, dropped = [], []
     for name, n_bands in designs.items():
         for est in ESTIMATORS:
@@ -117,8 +120,20 @@ def plan_units(
                 dropped.append({"design": name, "estimator": est, "reason": reason})
             else:
                 run.append((name, est))
-    units = [(p, name, est) for p in range(partitions) for name, est in run]
+    units = [
+        (p, name, est)
+        for stage in range(3)
+        for p in range(partitions)
+        for name, est in run
+        if _stage(est) == stage
+    ]
     return units, dropped
+
+
+def _stage(estimator: str) -> int:
+    if estimator in SURFACE_ESTIMATORS:
+        return 2
+    return 1 if ESTIMATORS[estimator]["estimator"] == "inversion" else 0
 
 
 # ------------------------------------------------------------------------------

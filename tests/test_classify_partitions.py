@@ -39,7 +39,11 @@ def test_plan_drops_what_it_says_and_nothing_else():
     assert "--one-band-inversion" in why[("viirs-dnb", "inversion")]
     # 3 estimators for the multi-band designs, 2 for the one-band one
     assert len(units) == 4 * (3 * 3 + 2)
-    assert [u[0] for u in units] == sorted(u[0] for u in units)  # partition-major
+    # the KNN of every partition first, then the inversion, each by partition
+    stages = [e.startswith("inversion") for _, _, e in units]
+    assert stages == sorted(stages)
+    knn = [p for p, _, e in units if not e.startswith("inversion")]
+    assert knn == sorted(knn) and len(knn) == 4 * 2 * 4
     full, none = cp.plan_units(designs, 2, surface_modes=True, one_band_inversion=True)
     assert none == [] and len(full) == 2 * (5 + 5 + 3 + 3)
     # surface knowledge never for a reference sensor
