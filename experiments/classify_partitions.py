@@ -221,6 +221,18 @@ def paired_differences(
     return out
 
 
+def modelled_classes_added(records: Sequence[dict]) -> dict[str, int]:
+    """Per class, the outer folds (over every unit with modelled lamps) in
+    which it got modelled training lamps."""
+    out: dict[str, int] = {}
+    for r in records:
+        for f in r.get("modelled_added_per_fold", []):
+            for c, n in f["added"].items():
+                if n:
+                    out[c] = out.get(c, 0) + 1
+    return dict(sorted(out.items()))
+
+
 def unit_record(res, *, partition: int, design: str, estimator: str, bands_sha: str):
     """One records.jsonl line from an `evaluate_band_set` result (JSON-ready):
     macro F1, accuracy, fold mean/SD and the reject coverage per level, the
@@ -343,10 +355,13 @@ def report_text(summary: dict) -> str:
         "",
         f"Estimators: {', '.join(ests)}. `knn+models`: the KNN also trained on "
         f"{summary['modelled_per_class']} modelled lamps per rare class "
-        f"({', '.join(summary['modelled_classes'])}; classes with fewer than 2 "
-        "measured training lamps in a fold get none), calibrated on each "
-        "fold's (and inner fold's) measured training lamps only, never scored. "
-        "Every other row trains on measured lamps only.",
+        f"(asked: {', '.join(summary['modelled_classes'])}; a class with fewer "
+        "than 2 measured training lamps in a fold gets none, so classes "
+        "without scored lamps never do; got lamps, outer folds over all units: "
+        + ", ".join(f"{c} {n}" for c, n in summary["modelled_classes_added"].items())
+        + "), calibrated on each fold's (and inner fold's) measured training "
+        "lamps only, never scored. Every other row trains on measured lamps "
+        "only.",
         "",
     ]
     for lv in LEVELS:
@@ -593,7 +608,9 @@ def main(argv=None) -> int:
     todo = [u for u in units if u not in done]
     log(f"{len(units)} units, {len(units) - len(todo)} finished earlier", t0)
     commit = git_commit()
-    spent: dict[str, list[float]] = {}
+    spent: dict[str, list[float]] = {}  # unit times, earlier runs' too (ETA)
+    for r in records:
+        spent.setdefault(r["estimator"], []).append(r["wall_s"])
     for j, (p, name, est) in enumerate(todo):
         kw = dict(ESTIMATORS[est])
         if "modelled_per_class" in kw:
@@ -658,6 +675,7 @@ def main(argv=None) -> int:
         },
         "modelled_per_class": n_model,
         "modelled_classes": list(model_classes),
+        "modelled_classes_added": modelled_classes_added(final),
         "designs": {
             n: {
                 "n_bands": len(b),

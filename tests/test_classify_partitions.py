@@ -119,6 +119,7 @@ def test_quick_run_writes_everything_and_resumes(tmp_path, capsys):
     assert {(r["design"], r["reference"]) for r in s["paired"]} == {
         ("classification", "sdgsat-1")
     }
+    assert s["modelled_classes_added"] == {"mercury": 2 * 2 * 3}  # 2 designs
     man = json.loads((out / "manifest.json").read_text())
     used = {(r["design"], r["estimator"]): r for r in man["config"]["rows"]}
     assert used[("classification", "knn+models")]["modelled_lamps_used"]
