@@ -405,11 +405,14 @@ def report_text(summary: dict) -> str:
     lines += [
         "## Cost",
         "",
-        f"{t['units']} units; wall time of the units in this folder "
-        f"{t['unit_wall_s'] / 60:.1f} min (per unit: "
+        f"{t['units']} units; their scoring took {t['unit_wall_s'] / 60:.1f} min "
+        "in all (mean per unit: "
         + ", ".join(f"{k} {v:.0f} s" for k, v in t["mean_unit_s"].items())
-        + "); this invocation "
-        f"{t['this_run_s'] / 60:.1f} min. Code: {', '.join(summary['git_commits'])}.",
+        + "; the first `knn+models` unit of a process also fits the lamp "
+        f"models); the last invocation scored {t['units_this_run']} of them "
+        f"in {t['this_run_s'] / 60:.1f} min. Times are the machine's at the "
+        "time (manifest.json), not a benchmark. Units computed by code "
+        f"{', '.join(c[:7] for c in summary['git_commits'])}.",
         "",
     ]
     return "\n".join(lines)
@@ -699,6 +702,7 @@ def main(argv=None) -> int:
             "unit_wall_s": float(sum(r["wall_s"] for r in final)),
             "mean_unit_s": {e: float(np.mean(v)) for e, v in by_est.items()},
             "this_run_s": time.perf_counter() - t0,
+            "units_this_run": len(todo),
         },
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
