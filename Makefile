@@ -9,7 +9,8 @@ BEFORE  ?= 0e7885f
 SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: run test test-slow lint bench atmospheres surfaces library lamp-models ler \
-        g cct sweep compare classify radiometry spatial noise-aware estimate estimate-moon \
+        g cct sweep compare classify classify-partitions radiometry spatial \
+        noise-aware estimate estimate-moon \
         before-after report check-report docs tutorial clean
 
 $(STAMP): pyproject.toml requirements.lock
@@ -77,6 +78,9 @@ estimate-moon: $(STAMP)  ## the estimate's scenes split by Moon state: where the
 classify: $(STAMP)  ## lamp-type classification (writes recommendation.json "classification")
 	$(BIN)/python -m experiments.classify
 	$(BIN)/python -m experiments.readme_sections classification
+
+classify-partitions: $(STAMP)  ## fixed designs (both recommendations, every reference sensor) over 4 lamp partitions: KNN, KNN + modelled lamps, inversion; mean +/- SD and paired differences (results/classify_partitions)
+	$(BIN)/python -m experiments.classify_partitions
 
 radiometry: $(STAMP)  ## detection limits, saturation, bit depth (writes recommendation.json "radiometry")
 	$(BIN)/python -m experiments.radiometry

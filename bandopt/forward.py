@@ -150,6 +150,11 @@ class ScenarioTable:
       per lamp (`bandopt.datasets.lamps` identifiers).
     - `surface`, `atmosphere`, `moon`, `lighting_class`: condition labels, `(n,)`.
     - `config`: the scenario set's configuration.
+    - `scenarios`: the `ScenarioSet` the rows were built from (set by
+      `scenario_table`; None for a table built otherwise). Lets a caller
+      light the same scenes with other lamps (`ScenarioSet.with_lamps`), e.g.
+      modelled training lamps of `bandopt.classify.evaluate_band_set`. Not
+      compared by `==`.
     """
 
     toa: np.ndarray
@@ -163,6 +168,9 @@ class ScenarioTable:
     moon: np.ndarray
     lighting_class: np.ndarray
     config: dict
+    scenarios: ScenarioSet | None = dataclasses.field(
+        default=None, repr=False, compare=False
+    )
 
     @property
     def n_rows(self) -> int:
@@ -272,6 +280,7 @@ def scenario_table(
         moon=lab(moons, 3),
         lighting_class=lab(scen.class_labels, 4),
         config=dict(scen.config),
+        scenarios=scen,
     )
 
 

@@ -298,3 +298,16 @@ def test_scenes_lit_by_lamps_outside_the_library(scen):
         scenario_table(scen.with_lamps(names, spec))
     with pytest.raises(ValueError, match="both level1 and level2"):
         scenario_table(scen.with_lamps(names, spec), level1=list(base.level1))
+
+
+def test_scenario_table_keeps_its_scenario_set(scen):
+    """`scenario_table` keeps the set it was built from (`ScenarioTable.
+    scenarios`), whose scenes relit by the table's own lamps give its rows."""
+    from bandopt.forward import scenario_table
+
+    t = scenario_table(scen)
+    assert t.scenarios is scen
+    again = scenario_table(
+        t.scenarios.with_lamps(t.lamp_ids, np.asarray(scen.factors.lamp))
+    )
+    np.testing.assert_array_equal(again.toa, t.toa)

@@ -7,6 +7,18 @@ one-vs-all KNN fitted on the outer training lamps and applied to the outer
 test lamps. Scores are computed over the pooled outer test predictions (each
 scored lamp is tested exactly once); per-fold macro F1 is reported beside.
 Only scored classes (`LampLibrary.is_scored`) take part.
+
+**Modelled training lamps** (`modelled_per_class` > 0, issue 11 b): in every
+outer fold, `modelled_per_class` lamps per class of `modelled_classes` from
+the physical lamp models calibrated on that fold's measured training lamps
+only (`_modelled.modelled_rows`), lighting the table's scenes, join the
+training rows; test rows stay measured lamps only. The inner folds that
+choose k get them too, each inner training set its own lamps calibrated on
+its own measured training lamps only, so k is chosen for training sets like
+the one it is used with and no inner validation lamp shapes a model. The
+modelled rows' photon noise has its own draws (`_modelled.modelled_noise_key
+(seed, stream)`, stream `outer * (n_inner + 1) + j`: j = inner fold, or
+n_inner for the outer training set), never a measured row's.
 """
 
 from collections.abc import Sequence
@@ -14,6 +26,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..forward import ScenarioTable, resolve_level
+from ..inversion import MODELLED_CLASSES, SURFACE_MODES
 from ..knn import (
     K_GRID,
     choose_k,
@@ -25,6 +38,7 @@ from ..knn import (
 from ..names import validate_method
 from ._inversion import evaluate_inversion
 from ._metrics import REJECT_THRESHOLD, reject, reject_curve, scores
+from ._modelled import modelled_rows
 from ._scores import (
     LEVEL_KEYS,
     REJECT_GRID,
@@ -58,12 +72,26 @@ def evaluate_band_set(
     radiance: np.ndarray | None = None,
     keep_rows: bool = False,
     estimator: str = "knn",
+    modelled_per_class: int = 0,
+    modelled_classes: Sequence[str] = MODELLED_CLASSES,
+    surface_mode: str = "unknown",
 ) -> BandSetScores:
     """Outer-fold scores of one band set (or one band set per outer fold, a
     sequence, for bands searched inside each fold).
 
     `estimator`: `"knn"` (default) or `"inversion"` (`evaluate_inversion`,
     the same folds and scores; one band set, all rows, no KNN options).
+
+    `modelled_per_class`: modelled training lamps per class of
+    `modelled_classes` (default 0: measured lamps only, the results as
+    before); for the KNN see the module docstring, for the inversion they go
+    into its prior (`evaluate_inversion`). `surface_mode`: what the
+    inversion knows of the surface, "unknown" (default), "class" or
+    "measured" (`evaluate_inversion`); the KNN knows none ("unknown" only).
+    With `modelled_per_class` > 0, `config` says `modelled_per_class` and
+    the classes that got lamps in each outer fold (`modelled_lamps`); with
+    the default 0 the result is byte for byte what it was before the option
+    existed (no such keys: no modelled lamp was used).
 
     `train_rows`/`test_rows`: optional boolean row masks (conditions) applied
     on top of the lamp splits. `radiance`: precomputed `(n, b)` (then `bands`
@@ -94,6 +122,27 @@ def evaluate_band_set(
             params=params,
             radiance=radiance,
             keep_rows=keep_rows,
+            modelled_per_class=modelled_per_class,
+            modelled_classes=modelled_classes,
+            surface_mode=surface_mode,
+        )
+    surface_mode = validate_method(surface_mode, SURFACE_MODES, "surface_mode")
+    if surface_mode != "unknown":
+        raise ValueError(
+            f"surface_mode {surface_mode!r}: the KNN knows nothing of the surface "
+            "(only 'unknown'); surface knowledge is for estimator 'inversion'."
+        )
+    if modelled_per_class < 0:
+        raise ValueError(f"modelled_per_class must be >= 0 (got {modelled_per_class}).")
+    if modelled_per_class and train_rows is not None:
+        raise ValueError(
+            "train_rows with modelled_per_class > 0: the row mask selects "
+            "measured rows only, the modelled rows would ignore it."
+        )
+    if modelled_per_class and radiance is not None:
+        raise ValueError(
+            "radiance with modelled_per_class > 0: the modelled rows need the "
+            "band set itself (`bands`) to be measured."
         )
     splits = outer_splits(table, fold_seed)
     per_fold_bands = isinstance(bands, (list, tuple))
@@ -119,6 +168,34 @@ def evaluate_band_set(
             cache[key] = (x, usable_rows(x, table, noise))
         return cache[key]
 
+    n_inner = len(splits[0].inner)
+    extra_cache: dict[tuple[int, int], tuple] = {}
+
+    def extra(s, j):
+        """Modelled training rows of outer fold `s`: inner fold `j`'s training
+        set, or the outer training set (j = n_inner); (features, usable,
+        ModelledRows)."""
+        if (s.outer, j) not in extra_cache:
+            lamps = s.train if j == n_inner else s.inner[j][0]
+            m = modelled_rows(
+                table,
+                lamps,
+                bands[s.outer] if per_fold_bands else bands,
+                modelled_per_class,
+                classes=modelled_classes,
+                seed=seed,
+                stream=s.outer * (n_inner + 1) + j,
+                noise=noise,
+                params=params,
+            )
+            if m.n_rows:
+                xm = np.asarray(features(m.radiance, kind))
+                um = usable_rows(xm, m.table, noise)
+            else:  # no class had enough training lamps for a model
+                xm, um = None, np.zeros(0, bool)
+            extra_cache[(s.outer, j)] = (xm, um, m)
+        return extra_cache[(s.outer, j)]
+
     out = {}
     order = tuple(map(resolve_level, levels))
     for level in order:
@@ -129,16 +206,29 @@ def evaluate_band_set(
         yt, proba_all, lamp_ids, fold_of, folds, row_idx = [], [], [], [], [], []
         for s in splits:
             x, keep = feats(s.outer)
-            k, kscores = choose_k(
-                x, y, table.lamp, s.inner, len(classes), k_grid, rows=keep & train_rows
-            )
             tr = keep & train_rows & table.rows_of_lamps(s.train)
             te = keep & test_rows & table.rows_of_lamps(s.test)
+            x_tr, y_tr = x[tr], y[tr]
+            if modelled_per_class:
+                k, kscores, x_tr, y_tr, fold_extra = _with_modelled(
+                    x, y, keep, table, s, extra, cidx, level, len(classes), k_grid
+                )
+            else:
+                k, kscores = choose_k(
+                    x,
+                    y,
+                    table.lamp,
+                    s.inner,
+                    len(classes),
+                    k_grid,
+                    rows=keep & train_rows,
+                )
+                fold_extra = {}
             # the fraction of the k nearest training rows per class: what
             # make_classifier(k).fit(...).predict_proba gives (uniform one-vs-
             # all KNN, tested), without sklearn's full scan per query when every
             # training row is equidistant (a one-band sensor)
-            p = vote_proba(neighbour_labels(x[tr], y[tr], x[te], k), k, len(classes))
+            p = vote_proba(neighbour_labels(x_tr, y_tr, x[te], k), k, len(classes))
             yt.append(y[te])
             proba_all.append(p)
             lamp_ids.append(np.asarray(table.lamp_ids, object)[table.lamp[te]])
@@ -158,6 +248,7 @@ def evaluate_band_set(
                     "accuracy": fs["accuracy"],
                     "n_train_rows": int(tr.sum()),
                     "n_test_rows": int(te.sum()),
+                    **fold_extra,
                 }
             )
         yt = np.concatenate(yt)
@@ -194,9 +285,95 @@ def evaluate_band_set(
         "n_outer": len(splits),
         "n_inner": len(splits[0].inner),
     }
+    if modelled_per_class:  # the default's config is as before: no such keys
+        config["modelled_per_class"] = int(modelled_per_class)
+        config["modelled_lamps"] = _modelled_config(
+            splits, extra, modelled_per_class, modelled_classes, seed
+        )
     return BandSetScores(
         level1=out.get("level1"), level2=out.get("level2"), config=config, order=order
     )
+
+
+def _with_modelled(x, y, keep, table, s, extra, cidx, level, n_classes, k_grid):
+    """k chosen on the inner folds with each inner training set's modelled
+    rows, then the outer training rows with the outer set's modelled rows:
+    `(k, inner scores, training features, training labels, fold record)`.
+
+    For `choose_k` the modelled rows are stacked below the measured ones as
+    extra "lamps" (indices from `len(table.lamp_ids)` on), each inner
+    training set holding only its own modelled lamps and no validation set
+    any."""
+    n_inner = len(s.inner)
+    xs, ys, lamp, rows, inner = [x], [y], [table.lamp], [keep], []
+    next_lamp = len(table.lamp_ids)
+    for j, (tr, va) in enumerate(s.inner):
+        xm, um, m = extra(s, j)
+        ids = np.zeros(0, int)
+        if m.n_rows:
+            n_l = len(m.table.lamp_ids)
+            ids = np.arange(next_lamp, next_lamp + n_l)
+            xs.append(xm)
+            ys.append(np.asarray([cidx[c] for c in m.labels(level)]))
+            lamp.append(next_lamp + m.table.lamp)
+            rows.append(um)
+            next_lamp += n_l
+        inner.append((np.concatenate([tr, ids]), va))
+    k, kscores = choose_k(
+        np.vstack(xs),
+        np.concatenate(ys),
+        np.concatenate(lamp),
+        inner,
+        n_classes,
+        k_grid,
+        rows=np.concatenate(rows),
+    )
+    tr = keep & table.rows_of_lamps(s.train)
+    xm, um, m = extra(s, n_inner)
+    x_tr, y_tr = x[tr], y[tr]
+    if m.n_rows:
+        ym = np.asarray([cidx[c] for c in m.labels(level)], int)
+        x_tr, y_tr = np.vstack([x_tr, xm[um]]), np.concatenate([y_tr, ym[um]])
+    record = {
+        "n_modelled_train_rows": int(um.sum()),
+        "modelled_added": dict(m.info["added"]),
+        "modelled_added_inner": [
+            dict(extra(s, j)[2].info["added"]) for j in range(n_inner)
+        ],
+    }
+    return k, kscores, x_tr, y_tr, record
+
+
+def _modelled_config(splits, extra, n_per_class, classes, seed) -> dict:
+    """What `config["modelled_lamps"]` says: per outer fold the lamps added per
+    class, the measured lamps each model was calibrated on, the skipped
+    classes, and the same for each inner training set."""
+    n_inner = len(splits[0].inner)
+    per_fold = []
+    for s in splits:
+        info = extra(s, n_inner)[2].info
+        per_fold.append(
+            {
+                "outer": s.outer,
+                "added": dict(info["added"]),
+                "calibration_lamps": dict(info["calibration_lamps"]),
+                "skipped": dict(info["skipped"]),
+                "inner_added": [
+                    dict(extra(s, j)[2].info["added"]) for j in range(n_inner)
+                ],
+            }
+        )
+    return {
+        "n_per_class": int(n_per_class),
+        "classes": list(classes),
+        "seed": int(seed),
+        "per_fold": per_fold,
+        "inner_folds": "each inner training set has its own modelled lamps, "
+        "calibrated on its measured training lamps only",
+        "noise": "own draws: bandopt.classify._modelled.modelled_noise_key("
+        "seed, outer * (n_inner + 1) + j)",
+        "scored": "never: test rows are measured lamps only",
+    }
 
 
 def summary(result: BandSetScores) -> dict:

@@ -7,10 +7,10 @@ inversion is fitted on the outer training lamps (`bandopt.inversion.
 fit_inversion`: its band-error scale, conformal factors and unexplained
 threshold chosen on the inner folds; the prior holds the training lamps plus
 the measured lamps of classes too small to score) with the surface unknown,
-as for the KNN. It inverts the outer test lamps' pixels; the type is read
-from the posterior hierarchically: level 1 is the family of highest posterior
-probability, level 2 the most probable class inside that family, so a level-2
-hit is always a level-1 hit.
+as for the KNN, by default. It inverts the outer test lamps' pixels; the type
+is read from the posterior hierarchically: level 1 is the family of highest
+posterior probability, level 2 the most probable class inside that family, so
+a level-2 hit is always a level-1 hit.
 
 **Reject option.** As for the KNN, per level, with the same threshold
 (`REJECT_THRESHOLD`): a pixel is "unknown" when the inversion flags it
@@ -20,6 +20,21 @@ For level 2 that probability is the top level-2 probability inside the chosen
 family; at any threshold >= 0.5 this is the same as requiring the top level-2
 probability overall (a class holding more than half the posterior makes its
 family the most probable one).
+
+**Surface knowledge** (`surface_mode`, `bandopt.inversion.SURFACE_MODES`):
+"unknown" (default, `SURFACE_MODE`: every prior surface type a candidate),
+"class" (each pixel's surface type is known: the table's per-row surface
+label, its mean and measured samples the candidates), or "measured" (a
+simulated daytime Sentinel-2 measurement of each pixel's true type-mean
+surface, `bandopt.inversion.measured_surfaces`, drawn with the noise seed).
+The same knowledge is given to the inner folds that choose the band-error
+scale and threshold, and to the test pixels.
+
+**Modelled lamps** (`modelled_per_class` > 0, issue 11 b): that many
+modelled lamps per class of `modelled_classes` join every prior the fit
+builds, calibrated on that prior's measured training lamps only
+(`bandopt.inversion.fit_inversion`, seed = the noise seed); they are never
+scored (test pixels are measured lamps only, checked per fold).
 
 The scores without the reject option classify every pixel, unexplained or
 not. Prior-only classes (e.g. low-pressure sodium, RGB LEDs) can be
@@ -33,9 +48,11 @@ from collections.abc import Sequence
 import numpy as np
 
 from .. import inversion as inv_mod
+from ..datasets import surfaces as surf_mod
 from ..datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT
 from ..forward import ScenarioTable, resolve_level
 from ..knn import features
+from ..names import validate_method
 from ..scene import Neighbourhood, build_scenarios
 from ._metrics import REJECT_THRESHOLD, confidence_curve, scores, withhold
 from ._scores import (
@@ -49,8 +66,26 @@ from ._scores import (
 
 
 SURFACE_MODE = "unknown"
-"""What the classifying inversion knows of the surface: nothing (like the
-KNN)."""
+"""What the classifying inversion knows of the surface by default: nothing
+(like the KNN)."""
+
+
+def surface_types(table: ScenarioTable) -> list[str]:
+    """Surface type of every row (`bandopt.datasets.surfaces` ids), for
+    surface knowledge "class"/"measured": a label `type#k` (a measured
+    sample, `surface_samples`) is its type. Raises `ValueError` for a mixed
+    surface (`a+b@f`, no single type)."""
+    out, cache = [], {}
+    for label in table.surface:
+        if label not in cache:
+            if "+" in label and "@" in label:
+                raise ValueError(
+                    f"table: surface {label!r} is a mix of two types; surface "
+                    "knowledge 'class'/'measured' needs one type per pixel."
+                )
+            cache[label] = surf_mod.resolve_surface(label.split("#")[0])
+        out.append(cache[label])
+    return out
 
 
 def inversion_conditions(table: ScenarioTable) -> inv_mod.Conditions:
@@ -142,6 +177,9 @@ def evaluate_inversion(
     params=None,
     radiance: np.ndarray | None = None,
     keep_rows: bool = False,
+    modelled_per_class: int = 0,
+    modelled_classes: Sequence[str] = inv_mod.MODELLED_CLASSES,
+    surface_mode: str = SURFACE_MODE,
 ) -> BandSetScores:
     """Outer-fold classification scores of the inversion for one band set, a
     `BandSetScores` as from `evaluate_band_set` (see the module docstring).
@@ -153,7 +191,13 @@ def evaluate_inversion(
     with `noise`, one per group of identical feature rows without. With
     `keep_rows`, each level also holds `rows` (row index, true, predicted)
     and `reject_rows` (probability of the predicted class, unexplained
-    flag)."""
+    flag). `surface_mode` and `modelled_per_class`: see the module
+    docstring; `config` records both (`surface`; with modelled lamps
+    `modelled_per_class` and per fold the classes that got them, with the
+    default 0 no such keys, the config as before)."""
+    surface_mode = validate_method(surface_mode, inv_mod.SURFACE_MODES, "surface_mode")
+    if modelled_per_class < 0:
+        raise ValueError(f"modelled_per_class must be >= 0 (got {modelled_per_class}).")
     levels = [resolve_level(lv) for lv in levels]
     splits = outer_splits(table, fold_seed)
     rad = np.asarray(
@@ -170,6 +214,14 @@ def evaluate_inversion(
     weights = inv_mod.band_weights_on(bands, grid)
     basis = _surface_basis(grid)
     lamp_ids = np.asarray(table.lamp_ids, object)
+    row_surface = _surface_knowledge(table, surface_mode, basis, seed)
+
+    def surf(rows):
+        if row_surface is None:
+            return None
+        if isinstance(row_surface, np.ndarray):
+            return row_surface[rows]
+        return [row_surface[i] for i in np.flatnonzero(rows)]
 
     per_fold = []  # (split, inversion, test rows, types, unexplained)
     for s in splits:
@@ -182,11 +234,16 @@ def evaluate_inversion(
             weights,
             cond,
             basis=basis,
-            surface_mode=SURFACE_MODE,
+            surface_mode=surface_mode,
+            row_surface=None if row_surface is None else surf(keep),
             always=always,
+            modelled_per_class=modelled_per_class,
+            modelled_classes=modelled_classes,
+            modelled_seed=seed,
         )
         te = keep & table.rows_of_lamps(s.test)
-        res = inv.predict(rad[te])
+        _never_scored(inv, lamp_ids[s.test])
+        res = inv.predict(rad[te], surf(te))
         # every pixel typed; the unexplained flag is applied by the reject option
         types = hierarchical_types(res)
         labels = (res.level1_labels, res.level2_labels)
@@ -217,6 +274,7 @@ def evaluate_inversion(
                     "sigma_rel": inv.sigma_rel,
                     "unexplained_threshold_reduced_chi2": inv.threshold,
                     "n_prior_lamps": len(inv.prior.ids),
+                    **_modelled_fold(inv, modelled_per_class),
                     "macro_f1": fs["macro_f1"],
                     "accuracy": fs["accuracy"],
                     "n_train_rows": int((keep & table.rows_of_lamps(s.train)).sum()),
@@ -255,7 +313,7 @@ def evaluate_inversion(
         out[level] = LevelScores(**res)
     config = {
         "estimator": "inversion",
-        "surface": SURFACE_MODE,
+        "surface": surface_mode,
         "noise": noise,
         "seed": seed,
         "fold_seed": fold_seed,
@@ -263,9 +321,61 @@ def evaluate_inversion(
         "n_outer": len(splits),
         "n_inner": len(splits[0].inner),
     }
+    if modelled_per_class:  # the default's config is as before: no such keys
+        config["modelled_per_class"] = int(modelled_per_class)
+        config["modelled_lamps"] = {
+            "n_per_class": int(modelled_per_class),
+            "classes": list(modelled_classes),
+            "seed": int(seed),
+            "per_fold": [
+                {"outer": s.outer, **_modelled_fold(inv, modelled_per_class)}
+                for s, inv, *_ in per_fold
+            ],
+            "calibrated_on": "the measured training lamps of each prior only "
+            "(outer and inner folds; bandopt.inversion.fit_inversion)",
+            "scored": "never: test pixels are measured lamps only",
+        }
     return BandSetScores(
         level1=out.get("level1"),
         level2=out.get("level2"),
         config=config,
         order=tuple(levels),
     )
+
+
+def _surface_knowledge(table: ScenarioTable, mode: str, basis, seed: int):
+    """Per-row surface input of `mode` for every table row: None ("unknown"),
+    the surface type names ("class"), or Sentinel-2-derived basis
+    coefficients `(n, r)` ("measured", drawn with `seed` over all rows, so a
+    row's draw does not depend on which rows are kept)."""
+    if mode == "unknown":
+        return None
+    types = surface_types(table)
+    if mode == "class":
+        return types
+    return inv_mod.measured_surfaces(types, basis, seed=seed)
+
+
+def _modelled_fold(inv: inv_mod.Inversion, n_per_class: int) -> dict:
+    """A fold record's modelled-lamp fields (none when none were asked)."""
+    if not n_per_class:
+        return {}
+    info = inv.diagnostics.get("modelled_lamps", {})
+    return {
+        "modelled_added": dict(info.get("added", {})),
+        "modelled_calibration_lamps": dict(info.get("calibration_lamps", {})),
+        "modelled_skipped": dict(info.get("skipped", {})),
+    }
+
+
+def _never_scored(inv: inv_mod.Inversion, test_ids) -> None:
+    """Modelled lamps train, never score: no prior lamp calibrated on a test
+    lamp, no modelled id among the test lamps (a bug if either happens)."""
+    info = inv.diagnostics.get("modelled_lamps", {})
+    test = set(test_ids)
+    bad = set(info.get("ids", ())) & test
+    bad |= {
+        lamp for cal in info.get("calibration_lamps", {}).values() for lamp in cal
+    } & test
+    if bad:
+        raise RuntimeError(f"modelled lamps touch the test lamps: {sorted(bad)}")

@@ -14,12 +14,14 @@ def register(subparsers):
             "classes only. Estimators: 'knn' (default) -- scale-free log band "
             "ratios, one-vs-all KNN, k chosen by inner folds; 'inversion' -- the "
             "physics-based inversion of `bandopt evaluate` (lamp x surface x "
-            "atmosphere, surface unknown, prior over the training lamps), type "
+            "atmosphere, surface unknown unless --surface-knowledge, prior over "
+            "the training lamps), type "
             "from its posterior: level 1 first, then the most probable level-2 "
             "class inside that family. Prints F1 per class, macro F1, accuracy, "
             "per-lamp accuracy and the reject option (confidence of the predicted "
             "class < 0.6 -> unknown; the inversion also rejects pixels it flags "
-            "unexplained)."
+            "unexplained). --modelled-per-class N adds modelled training lamps "
+            "of the rare classes (never scored)."
         ),
     )
     add_list_option(
@@ -40,6 +42,28 @@ def register(subparsers):
         "sets, see the user guide); inversion: the physics-based inversion of "
         "`bandopt evaluate`, lamp type read from its posterior (level 1, then "
         "level 2 inside that family), pixels it flags unexplained rejected",
+    )
+    p.add_argument(
+        "--modelled-per-class",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also train on N modelled lamps per rare class (mercury, "
+        "led_amber, metal_halide, hps; lps too for the inversion's prior; "
+        "physical lamp models of bandopt.lampmodels calibrated on the "
+        "measured training lamps of each fold only), lighting the same "
+        "scenes; they train, never score (test lamps are measured ones). "
+        "knn: extra training rows (inner folds too); inversion: in its "
+        "prior. Default 0: measured lamps only. The first use fits the "
+        "models (several minutes); the JSON's config says modelled_per_class",
+    )
+    p.add_argument(
+        "--surface-knowledge",
+        default="unknown",
+        choices=("unknown", "class", "measured"),
+        help="inversion only: what it knows of the surface under each pixel: "
+        "unknown (default, as the KNN), class (the surface type), measured "
+        "(a simulated daytime Sentinel-2 measurement of it, noise seed --seed)",
     )
     p.add_argument(
         "--no-noise",
@@ -157,6 +181,15 @@ def run(args) -> int:
     from ._checks import band_set_warnings
     from ._output import atomic_path, prepare_file, print_json
 
+    if args.modelled_per_class < 0:
+        raise ValueError(
+            f"--modelled-per-class {args.modelled_per_class}: must be >= 0."
+        )
+    if args.surface_knowledge != "unknown" and args.estimator != "inversion":
+        raise ValueError(
+            f"--surface-knowledge {args.surface_knowledge}: only --estimator "
+            f"inversion uses surface knowledge (got --estimator {args.estimator})."
+        )
     if args.plot:
         prepare_file(args.plot, "--plot")
 
@@ -177,6 +210,8 @@ def run(args) -> int:
             "atmospheres": [a if isinstance(a, str) else list(a) for a in atms],
             "noise": noise,
             "features": args.features if knn else None,
+            "modelled_per_class": args.modelled_per_class,
+            "surface_knowledge": args.surface_knowledge,
             "seed": args.seed,
             "n_scenes": table.n_rows,
             "n_lamps": len(table.lamp_ids),
@@ -184,13 +219,18 @@ def run(args) -> int:
     }
     results = []
     for src, bands in band_sets:
+        kw = dict(
+            noise=noise, seed=args.seed, modelled_per_class=args.modelled_per_class
+        )
         if knn:
-            res = evaluate_band_set(
-                table, bands, noise=noise, seed=args.seed, kind=args.features
-            )
+            res = evaluate_band_set(table, bands, kind=args.features, **kw)
         else:
             res = evaluate_band_set(
-                table, bands, noise=noise, seed=args.seed, estimator="inversion"
+                table,
+                bands,
+                estimator="inversion",
+                surface_mode=args.surface_knowledge,
+                **kw,
             )
         results.append((src, res))
         centre = getattr(bands, "centre_nm", None)
@@ -202,6 +242,11 @@ def run(args) -> int:
                 "centre_nm": None if centre is None else [float(c) for c in centre],
                 "fwhm_nm": None if fwhm is None else [float(f) for f in fwhm],
                 **summary(res),
+                **(
+                    {"modelled_lamps": res.config["modelled_lamps"]}
+                    if args.modelled_per_class
+                    else {}
+                ),
                 "warnings": warnings[src],
             }
         )
@@ -213,7 +258,12 @@ def run(args) -> int:
         return 0
     for b in out["band_sets"]:
         head = f"{b['source']} ({b['n_bands']} bands, noise={noise}"
-        print(head + (")" if knn else ", estimator inversion)"))
+        extra = (
+            "" if knn else f", estimator inversion, surface {args.surface_knowledge}"
+        )
+        if args.modelled_per_class:
+            extra += f", {args.modelled_per_class} modelled lamps per rare class"
+        print(head + extra + ")")
         for level in ("level1", "level2"):
             s = b[level]
             rej = s["reject"]
