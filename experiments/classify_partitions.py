@@ -710,9 +710,19 @@ def main(argv=None) -> int:
     _write_csv(out / "paired.csv", paired)
     figure(rows, out / "f1_partitions.png", parts)
     (out / "report.md").write_text(report_text(summary))
+    used = sorted({r["estimator"] for r in rows if r["modelled_per_class"] > 0})
+    lamp_models = (
+        f"used in training only: {n_model} modelled lamps per class of "
+        f"{list(model_classes)} (bandopt.lampmodels, calibrated on each fold's "
+        f"measured training lamps) in the rows of {used}; never scored (test "
+        "lamps are measured)"
+        if used
+        else None
+    )
     write_manifest(
         out,
         seed=None,
+        **({"lamp_models": lamp_models} if lamp_models else {}),
         config={
             "partitions": parts,
             "quick": args.quick,
