@@ -332,6 +332,82 @@ def _write_csv(path: Path, rows: Sequence[dict]) -> None:
             )
 
 
+README_REFERENCES = ("nightsat", "sdgsat-1")
+"""Reference sensors of the results/README.md section's paired table."""
+
+
+def readme_text(summary: dict) -> str:
+    """The `classify-partitions` section of results/README.md: macro F1 of
+    every multi-band design (one-band sensors in one line) and the paired
+    differences against `README_REFERENCES`, read from `summary`."""
+    ests = list(summary["estimators"])
+    lines = [
+        "## Classification over lamp partitions (`results/classify_partitions/`, "
+        "`make classify-partitions`)",
+        "",
+        f"Fixed band sets, {summary['n_scenes']:,} scenes, {summary['n_lamps']} "
+        f"scored lamps, photon noise, {summary['partitions']} lamp partitions; "
+        "macro F1 mean ± SD (ddof 1). The bands were chosen on all lamps, so the "
+        "spread is the estimator's and the partition's, not the band selection's. "
+        "`knn+models`: the KNN also trained on modelled lamps of rare classes "
+        "(never scored). Full tables: `report.md`. Generated from `summary.json`.",
+        "",
+        "| design | bands | level 2: " + " / ".join(ests) + " | level 1: "
+        + " / ".join(ests) + " |",
+        "|---|---|---|---|",
+    ]
+    by = {(r["design"], r["estimator"]): r for r in summary["rows"]}
+    designs = list(dict.fromkeys(r["design"] for r in summary["rows"]))
+    one_band = [d for d in designs if by[(d, ests[0])]["n_bands"] == 1]
+
+    def cell(d, level):
+        out = []
+        for e in ests:
+            r = by.get((d, e))
+            if r is None:
+                out.append("-")
+                continue
+            m, sd = r[f"{level}_macro_f1_mean"], r[f"{level}_macro_f1_sd"]
+            out.append(f"{m:.3f} ± {sd:.3f}")
+        return " / ".join(out)
+
+    for d in designs:
+        if d in one_band:
+            continue
+        n = by[(d, ests[0])]["n_bands"]
+        lines.append(f"| {d} | {n} | {cell(d, 'level2')} | {cell(d, 'level1')} |")
+    if one_band:
+        r = by[(one_band[0], ests[0])]
+        lines.append(
+            f"| {len(one_band)} one-band sensors | 1 | "
+            f"{r['level2_macro_f1_mean']:.3f} (knn) | "
+            f"{r['level1_macro_f1_mean']:.3f} (knn) |"
+        )
+    lines += [
+        "",
+        "Paired differences, ours minus reference, same partition (level-2 macro "
+        "F1):",
+        "",
+        "| ours | reference | " + " | ".join(ests) + " |",
+        "|---|---|" + "---|" * len(ests),
+    ]
+    pairs = {
+        (p["design"], p["reference"], p["estimator"]): p for p in summary["paired"]
+    }
+    for ours in dict.fromkeys(p["design"] for p in summary["paired"]):
+        for ref in README_REFERENCES:
+            cells = [
+                (
+                    f"{q['level2_diff_mean']:+.3f} ± {q['level2_diff_sd']:.3f}"
+                    if (q := pairs.get((ours, ref, e)))
+                    else "-"
+                )
+                for e in ests
+            ]
+            lines.append(f"| {ours} | {ref} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def report_text(summary: dict) -> str:
     rows, paired = summary["rows"], summary["paired"]
     ests = list(dict.fromkeys(r["estimator"] for r in rows))
@@ -710,6 +786,14 @@ def main(argv=None) -> int:
     _write_csv(out / "paired.csv", paired)
     figure(rows, out / "f1_partitions.png", parts)
     (out / "report.md").write_text(report_text(summary))
+    if args.out is None and not args.quick:
+        from bandopt.results import update_readme_section
+
+        update_readme_section(
+            "classify-partitions",
+            readme_text(summary),
+            heading="## Classification over lamp partitions",
+        )
     used = sorted({r["estimator"] for r in rows if r["modelled_per_class"] > 0})
     lamp_models = (
         f"used in training only: {n_model} modelled lamps per class of "

@@ -137,3 +137,23 @@ def test_quick_run_writes_everything_and_resumes(tmp_path, capsys):
     assert again["rows"] == s["rows"]  # same seeds, same numbers
     fixed = (out / "records.jsonl").read_text().splitlines()
     assert len(fixed) == n_units and all(json.loads(x) for x in fixed)
+
+
+def test_readme_section_is_read_from_the_summary():
+    import json
+    from pathlib import Path
+
+    from experiments import classify_partitions as cp
+
+    root = Path(__file__).resolve().parents[1] / "results"
+    summary = json.loads((root / "classify_partitions" / "summary.json").read_text())
+    text = cp.readme_text(summary)
+    row = next(
+        r for r in summary["rows"]
+        if r["design"] == "classification" and r["estimator"] == "knn"
+    )  # fmt: skip
+    assert f"{row['level2_macro_f1_mean']:.3f} ± {row['level2_macro_f1_sd']:.3f}" in text
+    assert "| classification | sdgsat-1 |" in text
+    readme = (root / "README.md").read_text()
+    a, b = "<!-- classify-partitions:start -->", "<!-- classify-partitions:end -->"
+    assert text.strip() == readme[readme.index(a) + len(a) : readme.index(b)].strip()
