@@ -152,7 +152,8 @@ def test_readme_section_is_read_from_the_summary():
         r for r in summary["rows"]
         if r["design"] == "classification" and r["estimator"] == "knn"
     )  # fmt: skip
-    assert f"{row['level2_macro_f1_mean']:.3f} ± {row['level2_macro_f1_sd']:.3f}" in text
+    m, sd = row["level2_macro_f1_mean"], row["level2_macro_f1_sd"]
+    assert f"{m:.3f} ± {sd:.3f}" in text
     assert "| classification | sdgsat-1 |" in text
     readme = (root / "README.md").read_text()
     a, b = "<!-- classify-partitions:start -->", "<!-- classify-partitions:end -->"
