@@ -1872,17 +1872,24 @@ def paired_differences(summary_rows, reference: str, against: str):
     for (bs, est, surf), r in sorted(by.items()):
         if bs != against or (reference, est, surf) not in by:
             continue
-        ref = by[(reference, est, surf)]
         row = {"estimator": est, "surface": surf, "band_set": against, "vs": reference}
-        for m in ("LER", "G", "CCT", "CCT_mired"):
-            a, b = r.get(f"{m}_per_partition"), ref.get(f"{m}_per_partition")
-            if not a or not b or len(a) != len(b):
-                continue
-            d = np.asarray(a) - np.asarray(b)
-            row[f"{m}_diff"] = float(d.mean())
-            row[f"{m}_diff_sd"] = float(d.std(ddof=1)) if d.size > 1 else None
-            row[f"{m}_relative"] = float(d.mean() / np.mean(b)) if np.mean(b) else None
-        out.append(row)
+        out.append(_paired_by_partition(r, by[(reference, est, surf)], row))
+    return out
+
+
+def _paired_by_partition(row_a, row_b, out: dict) -> dict:
+    """`out` plus, per metric, `a - b` of two summary rows paired by
+    partition: mean (`_diff`), SD (ddof 1, `_diff_sd`) and mean relative to
+    b's (`_relative`); metrics without matching per-partition values are left
+    out."""
+    for m in ("LER", "G", "CCT", "CCT_mired"):
+        a, b = row_a.get(f"{m}_per_partition"), row_b.get(f"{m}_per_partition")
+        if not a or not b or len(a) != len(b):
+            continue
+        d = np.asarray(a) - np.asarray(b)
+        out[f"{m}_diff"] = float(d.mean())
+        out[f"{m}_diff_sd"] = float(d.std(ddof=1)) if d.size > 1 else None
+        out[f"{m}_relative"] = float(d.mean() / np.mean(b)) if np.mean(b) else None
     return out
 
 
@@ -1907,21 +1914,9 @@ def estimator_differences(summary_rows, pairs=ESTIMATOR_PAIRS):
         for (bs, est, surf), r in sorted(by.items()):
             if est != variant or (bs, base, surf) not in by:
                 continue
-            ref = by[(bs, base, surf)]
             row = {"band_set": bs, "surface": surf, "estimator": variant, "vs": base}
-            for m in ("LER", "G", "CCT", "CCT_mired"):
-                a, b = r.get(f"{m}_per_partition"), ref.get(f"{m}_per_partition")
-                if not a or not b or len(a) != len(b):
-                    continue
-                d = np.asarray(a) - np.asarray(b)
-                row[f"{m}_diff"] = float(d.mean())
-                row[f"{m}_diff_sd"] = float(d.std(ddof=1)) if d.size > 1 else None
-                row[f"{m}_relative"] = (
-                    float(d.mean() / np.mean(b)) if np.mean(b) else None
-                )
-            out.append(row)
+            out.append(_paired_by_partition(r, by[(bs, base, surf)], row))
     return out
-
 
 def leave_one_class_out(
     ctx,

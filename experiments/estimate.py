@@ -409,6 +409,15 @@ def _fmt(r, m, digits):
     return f"{v:.{digits}f} ± {sd:.{digits}f}" if sd is not None else f"{v:.{digits}f}"
 
 
+def diff_cells(p: dict) -> list[str]:
+    """Table cells `mean ± SD` of a paired row's LER, G and CCT differences."""
+    cells = []
+    for m, d in (("LER", 1), ("G", 3), ("CCT", 0)):
+        v, sd = p.get(f"{m}_diff"), p.get(f"{m}_diff_sd")
+        cells.append("n/a" if v is None else f"{v:+.{d}f} ± {(sd or 0):.{d}f}")
+    return cells
+
+
 def readme_text(summary, paired, unseen, variants=()) -> str:
     """The results/README.md section, every number read from the summaries."""
     lines = [
@@ -452,10 +461,7 @@ def readme_text(summary, paired, unseen, variants=()) -> str:
             "|---|---|---|---|---|---|",
         ]
         for p in paired:
-            cells = []
-            for m, d in (("LER", 1), ("G", 3), ("CCT", 0)):
-                v, sd = p.get(f"{m}_diff"), p.get(f"{m}_diff_sd")
-                cells.append("n/a" if v is None else f"{v:+.{d}f} ± {(sd or 0):.{d}f}")
+            cells = diff_cells(p)
             lines.append(
                 f"| {p['band_set']} | {p['estimator']} | {p['surface']} | "
                 + " | ".join(cells)
@@ -472,10 +478,7 @@ def readme_text(summary, paired, unseen, variants=()) -> str:
             "|---|---|---|---|---|---|---|",
         ]
         for p in variants:
-            cells = []
-            for m, d in (("LER", 1), ("G", 3), ("CCT", 0)):
-                v, sd = p.get(f"{m}_diff"), p.get(f"{m}_diff_sd")
-                cells.append("n/a" if v is None else f"{v:+.{d}f} ± {(sd or 0):.{d}f}")
+            cells = diff_cells(p)
             lines.append(
                 f"| {p['band_set']} | {p['estimator']} | {p['vs']} | {p['surface']} | "
                 + " | ".join(cells)

@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from experiments.estimate import diff_cells
+
 
 MOON_STATES = {
     "none and full (as make estimate)": None,
@@ -119,10 +121,7 @@ def readme_text(summary: dict) -> str:
                 if p["estimator"] != "inversion-moon" or p["vs"] != "inversion"
                 else f"{p['band_set']}: inversion-moon − inversion"
             )
-            cells = []
-            for m, d in (("LER", 1), ("G", 3), ("CCT", 0)):
-                v, sd = p.get(f"{m}_diff"), p.get(f"{m}_diff_sd")
-                cells.append("n/a" if v is None else f"{v:+.{d}f} ± {(sd or 0):.{d}f}")
+            cells = diff_cells(p)
             lines.append(f"| {what} | {p['estimator']} | " + " | ".join(cells) + " |")
     for label, u in (summary.get("unseen_types") or {}).items():
         o = u["overall"]
