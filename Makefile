@@ -79,8 +79,8 @@ classify: $(STAMP)  ## lamp-type classification (writes recommendation.json "cla
 	$(BIN)/python -m experiments.classify
 	$(BIN)/python -m experiments.readme_sections classification
 
-classify-partitions: $(STAMP)  ## fixed designs (both recommendations, every reference sensor) over 4 lamp partitions: KNN, KNN + modelled lamps, inversion; mean +/- SD and paired differences (results/classify_partitions)
-	$(BIN)/python -m experiments.classify_partitions
+classify-partitions: $(STAMP)  ## fixed designs (both recommendations, every reference sensor) over 4 lamp partitions: KNN, KNN + modelled lamps, inversion; mean +/- SD and paired differences (results/classify_partitions); recomputed from scratch (resume an interrupted run with python -m experiments.classify_partitions)
+	$(BIN)/python -m experiments.classify_partitions --fresh
 
 radiometry: $(STAMP)  ## detection limits, saturation, bit depth (writes recommendation.json "radiometry")
 	$(BIN)/python -m experiments.radiometry
