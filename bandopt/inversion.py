@@ -1496,17 +1496,24 @@ def context_moon(ctx) -> np.ndarray:
     irradiance (same shape assumed; exact for none/full). What an analyst
     knows from the acquisition's time and place."""
     scen = context_scenarios(ctx)
-    f = scen.factors
     q = ctx.toa.shape[1]
-    if f.moon_ground is None:
-        return np.zeros(q * ctx.table.n_lamps)
-    mg = np.asarray(f.moon_ground)  # (a, m, w)
-    tot = mg.sum(axis=(0, 2))
-    amp = tot / tot.max() if tot.max() > 0 else np.zeros_like(tot)
-    n_m = mg.shape[1]
+    amp = moon_amplitudes(scen)
     n_c = len(scen.class_labels)
-    per_scene = amp[(np.arange(q) // n_c) % n_m]
+    per_scene = amp[(np.arange(q) // n_c) % amp.size]
     return np.tile(per_scene, ctx.table.n_lamps)
+
+
+def moon_amplitudes(scen) -> np.ndarray:
+    """The Moon's brightness in each Moon state of a `scene.ScenarioSet`
+    (`scen.moon_labels` order), relative to its brightest state (the one
+    `Conditions.from_scenarios` holds): moonlit-ground irradiance summed over
+    atmospheres and wavelengths, over that of the brightest state; 0 for a
+    moonless state, all 0 when no state has a Moon. (m,) [1]"""
+    f = scen.factors
+    if f.moon_ground is None:
+        return np.zeros(max(len(scen.moon_labels), 1))
+    tot = np.asarray(f.moon_ground).sum(axis=(0, 2))  # (a, m, w) -> (m,)
+    return tot / tot.max() if tot.max() > 0 else np.zeros_like(tot)
 
 
 def context_scenarios(ctx):
@@ -1898,9 +1905,11 @@ ESTIMATOR_PAIRS = (
     ("kernel+models", "kernel"),
     ("inversion+models", "inversion"),
     (EVIDENCE_ESTIMATOR, "inversion"),
+    (MOON_ESTIMATOR, "inversion"),
 )
 """(variant, base) estimator pairs `estimator_differences` compares: what
-modelled training lamps and the evidence rule for `σ_rel` change."""
+modelled training lamps, the evidence rule for `σ_rel` and the told Moon
+change."""
 
 
 def estimator_differences(summary_rows, pairs=ESTIMATOR_PAIRS):

@@ -14,7 +14,11 @@ partition; noise seed p). Estimators (`bandopt.classify.evaluate_band_set`):
 - `knn+models`: the same, trained also on `MODELLED_PER_CLASS` modelled lamps
   per rare class (physical lamp models calibrated on each fold's and inner
   fold's measured training lamps only; test lamps are measured ones);
-- `inversion`: the physics-based inversion, surface unknown;
+- `inversion`: the physics-based inversion, surface unknown, Moon fitted;
+- `inversion-moon`: the same, told each pixel's Moon brightness (known from
+  the acquisition's time and place; `bandopt.classify.table_moon`) instead
+  of fitting it: the Moon is the estimate's largest confounder
+  (`make estimate-moon`);
 - `inversion/class`, `inversion/measured` (the two recommended sets only, with
   `--surface-modes`): surface type known / measured by Sentinel-2 in daytime.
 
@@ -63,6 +67,11 @@ ESTIMATORS = {
     "knn": {"estimator": "knn"},
     "knn+models": {"estimator": "knn", "modelled_per_class": MODELLED_PER_CLASS},
     "inversion": {"estimator": "inversion", "surface_mode": "unknown"},
+    "inversion-moon": {
+        "estimator": "inversion",
+        "surface_mode": "unknown",
+        "moon_known": True,
+    },
     "inversion/class": {"estimator": "inversion", "surface_mode": "class"},
     "inversion/measured": {"estimator": "inversion", "surface_mode": "measured"},
 }
@@ -100,9 +109,9 @@ def plan_units(
     """The (partition, design, estimator) units to score and the units left
     out with the reason. `designs`: name -> band count. Order: the KNN units
     (seconds each) of every partition first, then the inversion's (minutes
-    each), then the surface-knowledge modes, each stage partition by
-    partition, so a run cut short has the cheap estimators complete over
-    every partition."""
+    each: the Moon fitted, then told), then the surface-knowledge modes,
+    each stage partition by partition, so a run cut short has the cheap
+    estimators complete over every partition."""
     run, dropped = [], []
     for name, n_bands in designs.items():
         for est in ESTIMATORS:
@@ -122,7 +131,7 @@ def plan_units(
                 run.append((name, est))
     units = [
         (p, name, est)
-        for stage in range(3)
+        for stage in range(4)
         for p in range(partitions)
         for name, est in run
         if _stage(est) == stage
@@ -132,6 +141,8 @@ def plan_units(
 
 def _stage(estimator: str) -> int:
     if estimator in SURFACE_ESTIMATORS:
+        return 3
+    if ESTIMATORS[estimator].get("moon_known"):
         return 2
     return 1 if ESTIMATORS[estimator]["estimator"] == "inversion" else 0
 
@@ -144,6 +155,15 @@ def _sd(values) -> float | None:
     """Sample SD (ddof 1) over partitions; None for fewer than two."""
     v = np.asarray(values, float)
     return float(np.std(v, ddof=1)) if v.size > 1 else None
+
+
+def _moon(rec: dict) -> str:
+    """What a record's estimator knew of the Moon: "known per pixel", "fitted"
+    (the inversion) or "unknown" (the KNN); records from before the field
+    existed had the Moon fitted or unknown."""
+    if "moon" in rec:
+        return rec["moon"]
+    return "fitted" if rec.get("classifier") == "inversion" else "unknown"
 
 
 def aggregate(records: Sequence[dict]) -> list[dict]:
@@ -170,6 +190,7 @@ def aggregate(records: Sequence[dict]) -> list[dict]:
             "n_bands": recs[0]["n_bands"],
             "modelled_per_class": recs[0]["modelled_per_class"],
             "surface_knowledge": recs[0]["surface_knowledge"],
+            "moon": _moon(recs[0]),
             "partitions": len(recs),
             "partition_ids": [r["partition"] for r in recs],
         }
@@ -248,6 +269,7 @@ def unit_record(res, *, partition: int, design: str, estimator: str, bands_sha: 
         "estimator": estimator,
         "classifier": kw["estimator"],
         "surface_knowledge": cfg.get("surface", "unknown"),
+        "moon": _moon({"classifier": kw["estimator"], **cfg}),
         "modelled_per_class": int(cfg.get("modelled_per_class", 0)),
     }
     for lv in LEVELS:
@@ -350,7 +372,14 @@ def readme_text(summary: dict) -> str:
         "macro F1 mean ± SD (ddof 1). The bands were chosen on all lamps, so the "
         "spread is the estimator's and the partition's, not the band selection's. "
         "`knn+models`: the KNN also trained on modelled lamps of rare classes "
-        "(never scored). Full tables: `report.md`. Generated from `summary.json`.",
+        "(never scored)"
+        + (
+            "; `inversion-moon`: the inversion told each pixel's Moon brightness "
+            "instead of fitting it"
+            if "inversion-moon" in ests
+            else ""
+        )
+        + ". Full tables: `report.md`. Generated from `summary.json`.",
         "",
         "| design | bands | level 2: " + " / ".join(ests) + " | level 1: "
         + " / ".join(ests) + " |",
@@ -820,6 +849,7 @@ def main(argv=None) -> int:
                     "modelled_lamps_used": r["modelled_per_class"] > 0,
                     "modelled_per_class": r["modelled_per_class"],
                     "surface_knowledge": r["surface_knowledge"],
+                    "moon": r["moon"],
                 }
                 for r in rows
             ],

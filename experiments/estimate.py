@@ -4,10 +4,14 @@ For each band set (our recommended design and reference sensors), each lamp
 partition (fold seeds; the same nested, lamp-grouped, class-stratified folds
 for every row) and each estimator — the physics-based inversion with the
 surface unknown, its class known, or measured in daytime by Sentinel-2, and
-the bounded ridge and kernel-ridge baselines; the inversion twice, with its
-band-error scale chosen on the inner folds by metric error and by log
-evidence (`inversion-evidence`) — score the held-out measured
-lamps. Then hold out every scored lamp class in turn (unseen types).
+the bounded ridge and kernel-ridge baselines; the inversion three times:
+with its band-error scale chosen on the inner folds by metric error, by log
+evidence (`inversion-evidence`), and told each scene's Moon brightness
+instead of fitting it (`inversion-moon`: known from the acquisition's time
+and place; `bandopt evaluate` tells it) — score the held-out measured
+lamps. Then hold out every scored lamp class in turn (unseen types), with
+the Moon fitted and told (`unseen_types.json` entries `<band set>` and
+`<band set>+moon`).
 
     python -m experiments.estimate [--partitions 4] [--quick] [--out DIR]
         [--modelled-per-class N]
@@ -54,7 +58,10 @@ EVIDENCE = "inversion-evidence"
 """Estimator label of the inversion with `σ_rel` chosen by held-out log
 evidence (`bandopt.inversion.EVIDENCE_ESTIMATOR`); "inversion" chooses it by
 held-out metric error."""
-INVERSIONS = ("inversion", EVIDENCE, MODELS)
+MOON = "inversion-moon"
+"""Estimator label of the inversion told the Moon's brightness
+(`bandopt.inversion.MOON_ESTIMATOR`)."""
+INVERSIONS = ("inversion", EVIDENCE, MODELS, MOON)
 FULL_SURFACE_SETS = ("recommended", "sdgsat-1")
 RECOMMENDED = Path("results/search/recommended_bands.json")
 
@@ -164,9 +171,9 @@ def main(argv=None) -> int:
             else ("unknown",)
         )
         ests = (
-            ("inversion", EVIDENCE, "ridge", "kernel")
+            ("inversion", EVIDENCE, MOON, "ridge", "kernel")
             if len(bands.names) > 1
-            else ("inversion", EVIDENCE, "ridge")
+            else ("inversion", EVIDENCE, MOON, "ridge")
         )
         t0 = time.time()
         recs = inv_mod.cross_validate(
@@ -226,6 +233,16 @@ def main(argv=None) -> int:
             }
             if n_model:
                 unseen[name]["modelled_per_class"] = 0
+            log(f"unseen types: {name}, the Moon told")
+            recs = inv_mod.leave_one_class_out(ctx, band_set(name), moon_known=True)
+            unseen[f"{name}+moon"] = {
+                "records": recs,
+                "by_class": _by_class(recs),
+                "overall": _overall(recs),
+                "moon": "known per pixel",
+            }
+            if n_model:
+                unseen[f"{name}+moon"]["modelled_per_class"] = 0
         if n_model and "recommended" in args.band_sets:
             log("unseen types: recommended, inversion with modelled lamps")
             recs = inv_mod.leave_one_class_out(
@@ -470,7 +487,8 @@ def readme_text(summary, paired, unseen, variants=()) -> str:
     if variants:
         lines += [
             "",
-            "What modelled training lamps and the evidence rule for σ_rel change "
+            "What modelled training lamps, the evidence rule for σ_rel and the "
+            "told Moon change "
             "(variant minus base estimator, same band set and folds, by partition; "
             "positive = the variant is worse; `estimator_paired.json`):",
             "",
@@ -491,11 +509,12 @@ def readme_text(summary, paired, unseen, variants=()) -> str:
             f"{MODELS}, {n_u} modelled lamps per class calibrated on the training "
             "classes only"
             if n_u
-            else "inversion"
+            else (f"{MOON}, the Moon told" if u.get("moon") else "inversion")
         )
+        base = name.removesuffix("+models").removesuffix("+moon")
         lines += [
             "",
-            f"Unseen lamp types ({name.removesuffix('+models')}, {est_u}, surface "
+            f"Unseen lamp types ({base}, {est_u}, surface "
             "unknown; each scored "
             "class held out in turn, its lamps scored by a model that never saw "
             f"the class): coverage LER {o['LER_covered']:.2f}, G "
@@ -552,7 +571,8 @@ def _recommendation(summary, coverage) -> dict:
             rows[key]["modelled_per_class"] = r["modelled_per_class"]
     return {
         "estimator": "inversion (bandopt.inversion), surface unknown, is the default "
-        "of bandopt evaluate",
+        "of bandopt evaluate; it tells the inversion each scene's Moon brightness "
+        f"(rows {MOON})",
         "class_balanced_mae": rows,
         "coverage": coverage,
         "source": "results/estimate/summary.json",
@@ -612,6 +632,7 @@ ESTIMATOR_COLOURS = {
     "ridge+models": "C4",
     "kernel+models": "C5",
     EVIDENCE: "C6",
+    MOON: "C8",
 }
 COLOUR_NAMES = {
     "C0": "blue",
@@ -621,6 +642,7 @@ COLOUR_NAMES = {
     "C4": "purple",
     "C5": "brown",
     "C6": "pink",
+    "C8": "olive",
 }
 
 
@@ -687,7 +709,9 @@ def _figures(summary, unseen, out, preset):
         xx,
         [
             f"{r['band_set']}/{r['surface']}"
-            + {MODELS: "/+models", EVIDENCE: "/evidence-σ"}.get(r["estimator"], "")
+            + {MODELS: "/+models", EVIDENCE: "/evidence-σ", MOON: "/Moon told"}.get(
+                r["estimator"], ""
+            )
             for r in inv_rows
         ],
         rotation=45,

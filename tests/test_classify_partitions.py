@@ -34,18 +34,20 @@ def test_plan_drops_what_it_says_and_nothing_else():
         ("spectral", "inversion/class"),
         ("spectral", "inversion/measured"),
         ("viirs-dnb", "inversion"),
+        ("viirs-dnb", "inversion-moon"),
     }
     assert "--surface-modes" in why[("spectral", "inversion/class")]
     assert "--one-band-inversion" in why[("viirs-dnb", "inversion")]
-    # 3 estimators for the multi-band designs, 2 for the one-band one
-    assert len(units) == 4 * (3 * 3 + 2)
-    # the KNN of every partition first, then the inversion, each by partition
-    stages = [e.startswith("inversion") for _, _, e in units]
+    # 4 estimators for the multi-band designs, 2 for the one-band one
+    assert len(units) == 4 * (3 * 4 + 2)
+    # the KNN of every partition first, then the inversion with the Moon
+    # fitted, then told, each by partition
+    stages = [e.startswith("inversion") + (e == "inversion-moon") for _, _, e in units]
     assert stages == sorted(stages)
     knn = [p for p, _, e in units if not e.startswith("inversion")]
     assert knn == sorted(knn) and len(knn) == 4 * 2 * 4
     full, none = cp.plan_units(designs, 2, surface_modes=True, one_band_inversion=True)
-    assert none == [] and len(full) == 2 * (5 + 5 + 3 + 3)
+    assert none == [] and len(full) == 2 * (6 + 6 + 4 + 4)
     # surface knowledge never for a reference sensor
     assert not any(e in cp.SURFACE_ESTIMATORS and d == "sdgsat-1" for _, d, e in full)
 
@@ -113,7 +115,7 @@ def test_quick_run_writes_everything_and_resumes(tmp_path, capsys):
         assert (out / name).is_file(), name
     s = json.loads((out / "summary.json").read_text())
     n_units = len((out / "records.jsonl").read_text().splitlines())
-    assert s["timing"]["units"] == n_units == 2 * (3 + 5)
+    assert s["timing"]["units"] == n_units == 2 * (4 + 6)
     assert {r["estimator"] for r in s["rows"]} == set(cp.ESTIMATORS)
     assert all(r["partitions"] == 2 for r in s["rows"])
     assert {(r["design"], r["reference"]) for r in s["paired"]} == {
@@ -125,6 +127,9 @@ def test_quick_run_writes_everything_and_resumes(tmp_path, capsys):
     assert used[("classification", "knn+models")]["modelled_lamps_used"]
     assert not used[("classification", "knn")]["modelled_lamps_used"]
     assert used[("classification", "inversion/class")]["surface_knowledge"] == "class"
+    assert used[("classification", "inversion-moon")]["moon"] == "known per pixel"
+    assert used[("classification", "inversion")]["moon"] == "fitted"
+    assert used[("classification", "knn")]["moon"] == "unknown"
     # an interrupted run: the last line cut short (no newline) -> recomputed on
     # a line of its own, the rest kept
     lines = (out / "records.jsonl").read_text().splitlines()

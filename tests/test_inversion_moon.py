@@ -160,3 +160,91 @@ def test_cross_validate_tells_the_moon_only_to_inversion_moon(moon_ctx, monkeypa
     with pytest.raises(StopError):
         inv_mod.leave_one_class_out(moon_ctx, FIVE, moon_known=True)
     np.testing.assert_array_equal(seen[-1], inv_mod.context_moon(moon_ctx))
+
+
+@pytest.fixture(scope="module")
+def three_moons():
+    """A small classification table with no Moon, a full and a first-quarter
+    Moon (one lamp per scored level-2 class, asphalt, no atmosphere)."""
+    from bandopt.classify import scenario_table
+    from bandopt.datasets.lamps import library
+
+    lib = library().select(scored_only=True)
+    first: dict[str, str] = {}
+    for r in lib.records:
+        first.setdefault(r.level2, r.id)
+    return scenario_table(
+        build_scenarios(
+            lamps=sorted(first.values()),
+            surfaces=("asphalt",),
+            atmospheres=("none",),
+            moons=(None, "full", "first_quarter"),
+            classes=("P4",),
+        )
+    )
+
+
+def test_table_moon_is_each_rows_moon_state_relative_to_the_brightest(three_moons):
+    """0 moonless, 1 full Moon, and for the first quarter the ratio of its
+    moonlit TOA radiance (scene minus the same scene without Moon) to the
+    full Moon's, within the 'same lunar spectrum shape' approximation."""
+    from bandopt.classify import table_moon
+
+    t = three_moons
+    amp = table_moon(t)
+    labels = np.asarray(t.moon, dtype=object)
+    state = np.array([str(m).split("@")[0] for m in labels])
+    assert amp.shape == (t.n_rows,)
+    np.testing.assert_array_equal(amp[state == "none"], 0.0)
+    np.testing.assert_array_equal(amp[state == "full"], 1.0)
+    fq = amp[state == "first_quarter"]
+    assert fq.size and np.all(fq == fq[0]) and 0.0 < fq[0] < 1.0
+    toa = np.asarray(t.toa)
+    ratios = []
+    for lamp in np.unique(t.lamp):
+        at = {s: np.flatnonzero((t.lamp == lamp) & (state == s))[0] for s in
+              ("none", "full", "first_quarter")}  # fmt: skip
+        moonlit_full = toa[at["full"]] - toa[at["none"]]
+        moonlit_fq = toa[at["first_quarter"]] - toa[at["none"]]
+        ratios.append(moonlit_fq.sum() / moonlit_full.sum())
+    assert np.allclose(ratios, fq[0], rtol=0.05)
+
+
+def test_classifier_told_the_moon_fits_and_predicts_with_table_moon(
+    three_moons, monkeypatch
+):
+    from bandopt.classify import evaluate_band_set, table_moon
+    from bandopt.sensor import load_band_set
+
+    seen = {}
+    real_predict = inv_mod.Inversion.predict
+
+    class StopError(Exception):
+        pass
+
+    def fit_spy(rad, row_lamp, *a, **kw):
+        seen["fit"] = (np.asarray(row_lamp), kw.get("row_moon"))
+        return real_fit(rad, row_lamp, *a, **kw)
+
+    def predict_spy(self, radiance, surface=None, moon=None):
+        seen["predict"] = (np.asarray(radiance).shape[0], moon)
+        raise StopError
+
+    real_fit = inv_mod.fit_inversion
+    monkeypatch.setattr(inv_mod, "fit_inversion", fit_spy)
+    monkeypatch.setattr(inv_mod.Inversion, "predict", predict_spy)
+    bands = load_band_set("sdgsat-1")
+    with pytest.raises(StopError):
+        evaluate_band_set(
+            three_moons, bands, estimator="inversion", noise=False, moon_known=True
+        )
+    amp = table_moon(three_moons)
+    row_lamp, moon = seen["fit"]
+    assert moon is not None and moon.shape == row_lamp.shape
+    assert set(np.unique(moon)) == set(np.unique(amp))
+    n, told = seen["predict"]
+    assert told is not None and told.shape == (n,)
+    assert set(np.unique(told)) <= set(np.unique(amp))
+    monkeypatch.setattr(inv_mod.Inversion, "predict", real_predict)
+    with pytest.raises(ValueError, match="KNN"):
+        evaluate_band_set(three_moons, bands, noise=False, moon_known=True)

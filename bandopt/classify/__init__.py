@@ -46,6 +46,7 @@ from ._inversion import (
     hierarchical_types as hierarchical_types,
     inversion_conditions as inversion_conditions,
     table_lamps as table_lamps,
+    table_moon as table_moon,
 )
 from ._metrics import (
     REJECT_THRESHOLD as REJECT_THRESHOLD,

@@ -75,6 +75,7 @@ def evaluate_band_set(
     modelled_per_class: int = 0,
     modelled_classes: Sequence[str] = MODELLED_CLASSES,
     surface_mode: str = "unknown",
+    moon_known: bool = False,
 ) -> BandSetScores:
     """Outer-fold scores of one band set (or one band set per outer fold, a
     sequence, for bands searched inside each fold).
@@ -88,6 +89,8 @@ def evaluate_band_set(
     into its prior (`evaluate_inversion`). `surface_mode`: what the
     inversion knows of the surface, "unknown" (default), "class" or
     "measured" (`evaluate_inversion`); the KNN knows none ("unknown" only).
+    `moon_known`: the inversion is told each pixel's Moon brightness instead
+    of fitting it (`evaluate_inversion`; inversion only).
     With `modelled_per_class` > 0, `config` says `modelled_per_class` and
     the classes that got lamps in each outer fold (`modelled_lamps`); with
     the default 0 the result is byte for byte what it was before the option
@@ -125,6 +128,12 @@ def evaluate_band_set(
             modelled_per_class=modelled_per_class,
             modelled_classes=modelled_classes,
             surface_mode=surface_mode,
+            moon_known=moon_known,
+        )
+    if moon_known:
+        raise ValueError(
+            "moon_known: the KNN uses band ratios and cannot be told the Moon; "
+            "it is for estimator 'inversion'."
         )
     surface_mode = validate_method(surface_mode, SURFACE_MODES, "surface_mode")
     if surface_mode != "unknown":

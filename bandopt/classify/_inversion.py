@@ -92,6 +92,32 @@ def inversion_conditions(table: ScenarioTable) -> inv_mod.Conditions:
     """The inversion's scene conditions (atmospheres, neighbourhood, brightest
     Moon state) of the scenario set behind `table`, rebuilt from its
     `config` with one lamp and one surface."""
+    return inv_mod.Conditions.from_scenarios(_conditions_scenarios(table))
+
+
+def table_moon(table: ScenarioTable) -> np.ndarray:
+    """The Moon's brightness in every row of `table`, relative to the
+    inversion's Moon state (`inversion_conditions`: the brightest), from the
+    row's Moon label (`bandopt.inversion.moon_amplitudes`): 0 moonless, 1
+    that state. What an analyst knows from the acquisition's time and place.
+    (n,) [1]. Raises `ValueError` naming a row label that is not one of the
+    scenario set's Moon states."""
+    scen = _conditions_scenarios(table)
+    amp = inv_mod.moon_amplitudes(scen)
+    index = {lab: i for i, lab in enumerate(scen.moon_labels)}
+    labels = np.asarray(table.moon, dtype=object)
+    bad = sorted({str(x) for x in labels} - set(index))
+    if bad:
+        raise ValueError(
+            f"table: Moon labels {bad[:5]} are not Moon states of its scenario "
+            f"set ({list(index)})."
+        )
+    return amp[np.array([index[x] for x in labels], dtype=int)]
+
+
+def _conditions_scenarios(table: ScenarioTable):
+    """The scenario set behind `table` with one lamp, one surface and one
+    lighting class: every atmosphere and Moon state, in `config` order."""
     cfg = table.config
     hood = cfg.get("neighbourhood")
     extra = {} if hood is None else {"neighbourhood": Neighbourhood(**hood)}
@@ -109,7 +135,7 @@ def inversion_conditions(table: ScenarioTable) -> inv_mod.Conditions:
         wavelength_nm=table.wavelength_nm,
         **extra,
     )
-    return inv_mod.Conditions.from_scenarios(scen)
+    return scen
 
 
 @functools.lru_cache(maxsize=2)
@@ -180,6 +206,7 @@ def evaluate_inversion(
     modelled_per_class: int = 0,
     modelled_classes: Sequence[str] = inv_mod.MODELLED_CLASSES,
     surface_mode: str = SURFACE_MODE,
+    moon_known: bool = False,
 ) -> BandSetScores:
     """Outer-fold classification scores of the inversion for one band set, a
     `BandSetScores` as from `evaluate_band_set` (see the module docstring).
@@ -194,7 +221,11 @@ def evaluate_inversion(
     flag). `surface_mode` and `modelled_per_class`: see the module
     docstring; `config` records both (`surface`; with modelled lamps
     `modelled_per_class` and per fold the classes that got them, with the
-    default 0 no such keys, the config as before)."""
+    default 0 no such keys, the config as before). `moon_known`: the
+    inversion is told each row's Moon brightness (`table_moon`, as
+    `bandopt.inversion.MOON_ESTIMATOR`) in its inner folds and on the test
+    pixels instead of fitting it; `config` then says `"moon": "known per
+    pixel"` (default False: fitted, no such key, the config as before)."""
     surface_mode = validate_method(surface_mode, inv_mod.SURFACE_MODES, "surface_mode")
     if modelled_per_class < 0:
         raise ValueError(f"modelled_per_class must be >= 0 (got {modelled_per_class}).")
@@ -215,6 +246,7 @@ def evaluate_inversion(
     basis = _surface_basis(grid)
     lamp_ids = np.asarray(table.lamp_ids, object)
     row_surface = _surface_knowledge(table, surface_mode, basis, seed)
+    row_moon = table_moon(table) if moon_known else None
 
     def surf(rows):
         if row_surface is None:
@@ -240,10 +272,12 @@ def evaluate_inversion(
             modelled_per_class=modelled_per_class,
             modelled_classes=modelled_classes,
             modelled_seed=seed,
+            row_moon=None if row_moon is None else row_moon[kept],
         )
         te = keep & table.rows_of_lamps(s.test)
         _never_scored(inv, lamp_ids[s.test])
-        res = inv.predict(rad[te], surf(te))
+        moon_te = None if row_moon is None else row_moon[te]
+        res = inv.predict(rad[te], surf(te), moon_te)
         # every pixel typed; the unexplained flag is applied by the reject option
         types = hierarchical_types(res)
         labels = (res.level1_labels, res.level2_labels)
@@ -321,6 +355,8 @@ def evaluate_inversion(
         "n_outer": len(splits),
         "n_inner": len(splits[0].inner),
     }
+    if moon_known:  # the default's config is as before: no such key
+        config["moon"] = "known per pixel"
     if modelled_per_class:  # the default's config is as before: no such keys
         config["modelled_per_class"] = int(modelled_per_class)
         config["modelled_lamps"] = {

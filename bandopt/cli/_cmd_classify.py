@@ -66,6 +66,15 @@ def register(subparsers):
         "(a simulated daytime Sentinel-2 measurement of it, noise seed --seed)",
     )
     p.add_argument(
+        "--moon",
+        default="fitted",
+        choices=("fitted", "known"),
+        help="inversion only: fitted (default: the Moon's brightness in each "
+        "pixel is a free non-negative parameter) or known (told each scene's "
+        "Moon brightness, as it is known from the acquisition's time and place; "
+        "the estimate's largest confounder, see results/estimate_moon)",
+    )
+    p.add_argument(
         "--no-noise",
         action="store_true",
         help="noise-free radiance (scenes deduplicated) instead of photon noise",
@@ -190,6 +199,11 @@ def run(args) -> int:
             f"--surface-knowledge {args.surface_knowledge}: only --estimator "
             f"inversion uses surface knowledge (got --estimator {args.estimator})."
         )
+    if args.moon != "fitted" and args.estimator != "inversion":
+        raise ValueError(
+            f"--moon {args.moon}: only --estimator inversion is told the Moon "
+            f"(got --estimator {args.estimator})."
+        )
     if args.plot:
         prepare_file(args.plot, "--plot")
 
@@ -212,6 +226,7 @@ def run(args) -> int:
             "features": args.features if knn else None,
             "modelled_per_class": args.modelled_per_class,
             "surface_knowledge": args.surface_knowledge,
+            "moon": None if knn else args.moon,
             "seed": args.seed,
             "n_scenes": table.n_rows,
             "n_lamps": len(table.lamp_ids),
@@ -230,6 +245,7 @@ def run(args) -> int:
                 bands,
                 estimator="inversion",
                 surface_mode=args.surface_knowledge,
+                moon_known=args.moon == "known",
                 **kw,
             )
         results.append((src, res))
@@ -259,7 +275,10 @@ def run(args) -> int:
     for b in out["band_sets"]:
         head = f"{b['source']} ({b['n_bands']} bands, noise={noise}"
         extra = (
-            "" if knn else f", estimator inversion, surface {args.surface_knowledge}"
+            ""
+            if knn
+            else f", estimator inversion, surface {args.surface_knowledge}, "
+            f"Moon {args.moon}"
         )
         if args.modelled_per_class:
             extra += f", {args.modelled_per_class} modelled lamps per rare class"
