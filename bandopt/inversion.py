@@ -1927,6 +1927,17 @@ def estimator_differences(summary_rows, pairs=ESTIMATOR_PAIRS):
             out.append(_paired_by_partition(r, by[(bs, base, surf)], row))
     return out
 
+def _fractions(labels) -> dict[str, float]:
+    """Fraction of each label among `labels` (None: "unexplained"), by
+    decreasing fraction."""
+    keys = ["unexplained" if x is None else str(x) for x in labels]
+    n = max(len(keys), 1)
+    counts: dict[str, int] = {}
+    for k in keys:
+        counts[k] = counts.get(k, 0) + 1
+    return {k: c / n for k, c in sorted(counts.items(), key=lambda kv: -kv[1])}
+
+
 def leave_one_class_out(
     ctx,
     bands,
@@ -1939,7 +1950,9 @@ def leave_one_class_out(
 ):
     """Unseen lamp types: for every scored level-2 class, fit on all other
     classes (inner folds: 2 class-stratified lamp folds of those) and score its
-    lamps. One record per test lamp as `cross_validate` (fold = the class).
+    lamps. One record per test lamp as `cross_validate` (fold = the class),
+    with the fraction of its pixels given each level-1 family
+    (`level1_predicted`; "unexplained" for flagged pixels).
 
     `modelled_per_class` > 0: modelled lamps in every prior, calibrated on that
     fit's training lamps only (`fit_inversion`), so the held-out class never
@@ -2008,6 +2021,9 @@ def leave_one_class_out(
                     )
                 ),
                 "unexplained": float(np.mean(res.unexplained[sel])),
+                "level1_predicted": _fractions(
+                    np.array(res.level1, dtype=object)[sel]
+                ),
             }
             for m, name in enumerate(METRICS):
                 if not v[m]:

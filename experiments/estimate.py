@@ -597,6 +597,11 @@ def _by_class(recs):
             v = [r[k] for r in rs if r.get(k) is not None]
             row[k] = float(np.mean(v)) if v else None
         row["out_of_range"] = int(sum(r["out_of_range"] for r in rs))
+        pred = [r["level1_predicted"] for r in rs if "level1_predicted" in r]
+        if pred:  # mean over the class's lamps of each lamp's pixel fractions
+            keys = sorted({k for d in pred for k in d})
+            frac = {k: float(np.mean([d.get(k, 0.0) for d in pred])) for k in keys}
+            row["level1_predicted"] = dict(sorted(frac.items(), key=lambda kv: -kv[1]))
         out[c] = row
     return out
 

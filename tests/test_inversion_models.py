@@ -393,6 +393,12 @@ def test_unseen_class_never_gets_a_model_of_itself(case, monkeypatch):
         want = {} if r["held_out_class"] == "mercury" else {"mercury": 2}
         assert r["modelled_classes_added"] == want
     assert {r["lamp"] for r in recs} == set(lamps.ids)  # measured lamps only
+    for r in recs:  # where each lamp's pixels went, consistent with the score
+        frac = r["level1_predicted"]
+        assert sum(frac.values()) == pytest.approx(1.0)
+        assert list(frac.values()) == sorted(frac.values(), reverse=True)
+        assert frac.get(r["level1"], 0.0) == pytest.approx(r["level1_correct"])
+        assert frac.get("unexplained", 0.0) == pytest.approx(r["unexplained"])
 
 
 @pytest.fixture(scope="module")
