@@ -536,6 +536,14 @@ def log_evidence(log_norm, y, sigmas) -> np.ndarray:
     )
 
 
+CALIBRATIONS = ("lamps", "classes")
+"""Held-out data `fit_inversion` calibrates its 90 % intervals on: `"lamps"`
+(default: the inner folds' held-out lamps, whose classes the inner prior
+holds, so the intervals are calibrated for new lamps of known types) or
+`"classes"` (each training class held out in turn from a prior of the other
+classes at the chosen `σ_rel`: calibrated for lamps of a type the prior does
+not hold, so wider)."""
+
 SIGMA_RULES = ("error", "evidence")
 """How `fit_inversion` chooses `σ_rel` on its inner folds: `"error"` (the
 class-balanced metric error of the held-out inner lamps, normalised per
@@ -1125,6 +1133,7 @@ def fit_inversion(
     modelled_seed: int = 0,
     sigma_rule: str = "error",
     row_moon=None,
+    calibration: str = "lamps",
 ) -> Inversion:
     """Fit an inversion on `train_lamps` (indices into `lamps`).
 
@@ -1151,7 +1160,19 @@ def fit_inversion(
 
     `row_moon` (N,): the Moon's brightness per row when known (see
     `Inversion.posterior`), used on the inner folds; pass the test pixels'
-    to `predict` too. Default None: fitted."""
+    to `predict` too. Default None: fitted.
+
+    `calibration` (`CALIBRATIONS`): the held-out lamps the conformal factors
+    of the 90 % intervals are chosen on: the inner folds' (`"lamps"`,
+    default) or each training class held out in turn (`"classes"`: one more
+    prior per training class, at the chosen `σ_rel`, its rows scored once;
+    class-balanced like the inner folds). `σ_rel` and the unexplained
+    threshold come from the inner folds either way, so the point estimates
+    and flags do not change; `diagnostics["calibration"]` says which."""
+    if calibration not in CALIBRATIONS:
+        raise ValueError(
+            f"calibration {calibration!r}: expected one of {CALIBRATIONS}."
+        )
     if sigma_rule not in SIGMA_RULES:
         raise ValueError(
             f"sigma_rule {sigma_rule!r}: expected one of {SIGMA_RULES}."
@@ -1244,31 +1265,30 @@ def fit_inversion(
     else:
         best = max(sigma_grid, key=lambda s: float(np.mean(evid[s])))
     # conformal factors and reject threshold from the held-out inner lamps
-    s_all, w_all, mis_all = [], [], []
-    for rows, _mean, rng, misfit, va in calib[best]:
-        lamp_w = dict(zip(va, class_balanced_weights(l2[va]), strict=True))
-        rl = row_lamp[rows]
-        counts = {l: int((rl == l).sum()) for l in va}
-        rw = np.array([lamp_w[l] / counts[l] for l in rl])
-        half = np.maximum((rng[..., 1] - rng[..., 0]) / 2, INTERVAL_FLOOR)
-        y = tm[rl]
-        score = np.maximum(rng[..., 0] - y, y - rng[..., 1]) / half
-        score = np.where(valid[rl], score, np.nan)
-        s_all.append(score)
-        w_all.append(rw)
+    held_out = calib[best]
+    if calibration == "classes":  # each training class held out in turn
+        held_out = []
+        train_arr = np.asarray(train_lamps, int)
+        for c in sorted(set(l2[train_arr])):
+            va = train_arr[l2[train_arr] == c]
+            tr = train_arr[l2[train_arr] != c]
+            if tr.size == 0:
+                continue
+            rows = rows_of(va)
+            inv = make(lamps.take(tr), best, modelled(tr)[0])
+            post, misfit = inv.posterior(
+                radiance[rows],
+                surf(rows),
+                moon=None if row_moon is None else np.asarray(row_moon, float)[rows],
+            )
+            mean, rng, _ = _posterior_metrics(post, inv.prior)
+            held_out.append((rows, mean, rng, misfit, va))
+    conf = _conformal_factors(held_out, row_lamp, l2, tm, valid)
+    mis_all, w_all = [], []
+    for rows, _mean, _rng, misfit, va in calib[best]:
         mis_all.append(misfit)
-    s_all, w_all, mis_all = (
-        np.vstack(s_all),
-        np.concatenate(w_all),
-        np.concatenate(mis_all),
-    )
-    conf = np.empty(3)
-    for m in range(3):
-        ok = ~np.isnan(s_all[:, m])
-        conf[m] = max(
-            float(_weighted_quantile(s_all[ok, m], w_all[None, ok], (COVERAGE,))[0, 0]),
-            0.0,
-        )
+        w_all.append(_row_weights(rows, va, row_lamp, l2))
+    mis_all, w_all = np.concatenate(mis_all), np.concatenate(w_all)
     dof = weights.shape[0] - (1 if conditions.moon is None else 2)
     thr = (
         float(_weighted_quantile(mis_all, w_all[None], (UNEXPLAINED_QUANTILE,))[0, 0])
@@ -1284,6 +1304,7 @@ def fit_inversion(
         diagnostics={
             "sigma_rel": best,
             "sigma_rule": sigma_rule,
+            "calibration": calibration,
             "moon": "fitted" if row_moon is None else "known per pixel",
             "inner_scores": {str(s): float(np.mean(v)) for s, v in scores.items()},
             "inner_log_evidence": {
@@ -1304,6 +1325,39 @@ def fit_inversion(
     )
 
 
+def _row_weights(rows, va, row_lamp, l2) -> np.ndarray:
+    """Weights of held-out rows: class-balanced over the held-out lamps `va`,
+    each lamp's weight shared by its rows."""
+    lamp_w = dict(zip(va, class_balanced_weights(l2[va]), strict=True))
+    rl = row_lamp[rows]
+    counts = {l: int((rl == l).sum()) for l in va}
+    return np.array([lamp_w[l] / counts[l] for l in rl])
+
+
+def _conformal_factors(held_out, row_lamp, l2, tm, valid) -> np.ndarray:
+    """Split-conformal factor per metric (3,): the `COVERAGE` weighted
+    quantile over held-out rows of the distance of the true value outside the
+    posterior 5-95 % range, in half-widths (`held_out`: (rows, mean, range,
+    misfit, lamps) per held-out set; rows class-balanced within a set)."""
+    s_all, w_all = [], []
+    for rows, _mean, rng, _misfit, va in held_out:
+        rl = row_lamp[rows]
+        half = np.maximum((rng[..., 1] - rng[..., 0]) / 2, INTERVAL_FLOOR)
+        y = tm[rl]
+        score = np.maximum(rng[..., 0] - y, y - rng[..., 1]) / half
+        s_all.append(np.where(valid[rl], score, np.nan))
+        w_all.append(_row_weights(rows, va, row_lamp, l2))
+    s_all, w_all = np.vstack(s_all), np.concatenate(w_all)
+    conf = np.empty(3)
+    for m in range(3):
+        ok = ~np.isnan(s_all[:, m])
+        conf[m] = max(
+            float(_weighted_quantile(s_all[ok, m], w_all[None, ok], (COVERAGE,))[0, 0]),
+            0.0,
+        )
+    return conf
+
+
 # ------------------------------------------------------------------------------
 # Nested cross-validation on a search context (lamp-grouped, shared folds)
 
@@ -1321,6 +1375,13 @@ MOON_ESTIMATOR = "inversion-moon"
 """`cross_validate` estimator: the inversion told each pixel's Moon brightness
 (`context_moon`; known from the acquisition's time and place) instead of
 fitting it."""
+
+MOON_UNSEEN_ESTIMATOR = "inversion-moon-loco"
+"""`cross_validate` estimator: `MOON_ESTIMATOR` with its 90 % intervals
+calibrated on training classes held out in turn (leave one class out,
+`fit_inversion(calibration="classes")`) instead of held-out lamps of known
+classes: the same point estimates, intervals meant to hold for lamp types
+the prior does not know."""
 
 EVIDENCE_ESTIMATOR = "inversion-evidence"
 """`cross_validate` estimator: the inversion with `σ_rel` chosen by held-out
@@ -1642,8 +1703,10 @@ def cross_validate(
                 "inversion+models",
                 EVIDENCE_ESTIMATOR,
                 MOON_ESTIMATOR,
+                MOON_UNSEEN_ESTIMATOR,
             ):
-                moon_rows = context_moon(ctx) if name == MOON_ESTIMATOR else None
+                told = name in (MOON_ESTIMATOR, MOON_UNSEEN_ESTIMATOR)
+                moon_rows = context_moon(ctx) if told else None
                 n_model = modelled_per_class if name == "inversion+models" else 0
                 for mode in surface_modes:
                     si = surf_in[mode]
@@ -1666,6 +1729,9 @@ def cross_validate(
                             "evidence" if name == EVIDENCE_ESTIMATOR else "error"
                         ),
                         row_moon=moon_rows,
+                        calibration=(
+                            "classes" if name == MOON_UNSEEN_ESTIMATOR else "lamps"
+                        ),
                     )
                     sub = (
                         None
@@ -1716,8 +1782,8 @@ def cross_validate(
             else:
                 raise ValueError(
                     f"estimator {name!r}: expected one of "
-                    f"{(*ESTIMATORS, *MODELLED_ESTIMATORS)}"
-                    f" or {(EVIDENCE_ESTIMATOR, MOON_ESTIMATOR)}."
+                    f"{(*ESTIMATORS, *MODELLED_ESTIMATORS)} or "
+                    f"{(EVIDENCE_ESTIMATOR, MOON_ESTIMATOR, MOON_UNSEEN_ESTIMATOR)}."
                 )
         for (name, mode), (p, inv) in preds.items():
             res = p if isinstance(p, InversionResult) else None
@@ -1947,6 +2013,7 @@ def leave_one_class_out(
     modelled_per_class: int = 0,
     modelled_classes: Sequence[str] = MODELLED_CLASSES,
     moon_known: bool = False,
+    calibration: str = "lamps",
 ):
     """Unseen lamp types: for every scored level-2 class, fit on all other
     classes (inner folds: 2 class-stratified lamp folds of those) and score its
@@ -1960,7 +2027,9 @@ def leave_one_class_out(
     `modelled_per_class` and the classes that got them. Default 0: as before.
 
     `moon_known`: the inversion is told each row's Moon brightness
-    (`context_moon`) instead of fitting it (`MOON_ESTIMATOR`)."""
+    (`context_moon`) instead of fitting it (`MOON_ESTIMATOR`). `calibration`:
+    the intervals' held-out lamps (`fit_inversion`; "classes": each of the
+    fit's training classes held out in turn, never the scored class)."""
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
     rad = ctx.radiance(bands)
@@ -1992,6 +2061,7 @@ def leave_one_class_out(
             modelled_classes=modelled_classes,
             modelled_seed=seed,
             row_moon=moon_rows,
+            calibration=calibration,
         )
         _check_never_scored(inv, [lamps.ids[i] for i in test])
         if c in inv.diagnostics["modelled_lamps"]["added"]:

@@ -8,7 +8,11 @@ splits the preset by Moon state, on the same lamp partitions and folds: the
 same scenes without the Moon, and with the full Moon only. Inversion (surface
 unknown) fitting the Moon's brightness, the inversion told it (known from the
 acquisition's time and place: `inversion-moon`), and the bounded ridge;
-recommended bands, measured lamps only.
+recommended bands, measured lamps only. On the scenes of `make estimate`
+also `inversion-moon-loco`: the told-Moon inversion with its 90 % intervals
+calibrated on training classes held out in turn instead of held-out lamps
+of known classes (same point estimates; meant for lamp types the prior does
+not hold), and the unseen-types study for all three inversions.
 
     python -m experiments.estimate_moon [--partitions 4] [--out DIR]
 
@@ -43,6 +47,15 @@ ESTIMATORS = ("inversion", "inversion-moon", "ridge")
 """The inversion fitting the Moon's brightness (as `make estimate`), the
 inversion told it (`bandopt.inversion.MOON_ESTIMATOR`: known from the time
 and place of the acquisition), and the bounded ridge."""
+LOCO = "inversion-moon-loco"
+"""`bandopt.inversion.MOON_UNSEEN_ESTIMATOR`, scored on the scenes of `make
+estimate` only (its point estimates are `inversion-moon`'s)."""
+UNSEEN = (
+    ("inversion", False, "lamps"),
+    ("inversion-moon", True, "lamps"),
+    (LOCO, True, "classes"),
+)
+"""Unseen-types runs: label, Moon told, interval calibration."""
 
 
 def log(msg: str) -> None:
@@ -83,12 +96,14 @@ def readme_text(summary: dict) -> str:
         "partitions and folds; class-balanced MAE, mean ± SD over "
         f"{summary['partitions']} partitions; measured lamps only. "
         "`inversion` fits the Moon's brightness, `inversion-moon` is told it "
-        "(known from the acquisition's time and place). Generated from "
-        "`summary.json`.",
+        "(known from the acquisition's time and place), `inversion-moon-loco` "
+        "is told it and calibrates its 90 % intervals on training classes held "
+        "out in turn (same estimates as `inversion-moon`). Coverage: fraction of "
+        "true values inside the 90 % intervals. Generated from `summary.json`.",
         "",
         "| Moon | band set | estimator | LER [lm/W] | G | CCT [K] | G: amber LED "
-        "| G: mercury | G: metal halide |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| G: mercury | G: metal halide | coverage LER/G/CCT |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row in summary["rows"]:
         g = row["G_by_class"]
@@ -100,10 +115,16 @@ def readme_text(summary: dict) -> str:
             f"{g.get(c, float('nan')):.2f}"
             for c in ("led_amber", "mercury", "metal_halide")
         )
+        cov = row.get("coverage") or {}
+        cov_cell = (
+            "/".join(f"{cov[m]:.2f}" for m in ("LER", "G", "CCT"))
+            if all(cov.get(m) is not None for m in ("LER", "G", "CCT"))
+            else "n/a"
+        )
         lines.append(
             f"| {row['moon']} | {row.get('band_set', 'recommended')} | "
             f"{row['estimator']} | {cell('LER', 1)} | "
-            f"{cell('G', 3)} | {cell('CCT', 0)} | {per_class} |"
+            f"{cell('G', 3)} | {cell('CCT', 0)} | {per_class} | {cov_cell} |"
         )
     if summary.get("paired"):
         lines += [
@@ -133,6 +154,21 @@ def readme_text(summary: dict) -> str:
             f"{o['CCT_covered']:.2f}; level-1 type right {o['level1_correct']:.2f}; "
             f"unexplained {o['unexplained']:.2f}; out of range {o['out_of_range']}.",
         ]
+        where = {
+            c: row["level1_predicted"]
+            for c, row in (u.get("by_class") or {}).items()
+            if row.get("level1_predicted")
+        }
+        if where:
+            parts = [
+                f"{c} → "
+                + ", ".join(f"{k} {v:.2f}" for k, v in list(frac.items())[:3])
+                for c, frac in where.items()
+            ]
+            lines.append(
+                "Where each held-out class's pixels went (level-1 family, "
+                "fraction): " + "; ".join(parts) + "."
+            )
     return "\n".join(lines) + "\n"
 
 
@@ -163,6 +199,7 @@ def main(argv=None) -> int:
     t0 = time.time()
     for label, moons in MOON_STATES.items():
         names = BAND_SETS if moons is None else ("recommended",)
+        ests = (*ESTIMATORS, LOCO) if moons is None else ESTIMATORS
         recs = []
         for p in range(args.partitions):
             ctx = get_context(preset_name(moons), None, p, "auto")
@@ -170,7 +207,7 @@ def main(argv=None) -> int:
                 r = inv_mod.cross_validate(
                     ctx,
                     band_set(name),
-                    estimators=ESTIMATORS,
+                    estimators=ests,
                     surface_modes=("unknown",),
                     seed=p,
                 )
@@ -188,6 +225,9 @@ def main(argv=None) -> int:
                     **{
                         k: s.get(k)
                         for k in ("LER", "LER_sd", "G", "G_sd", "CCT", "CCT_sd")
+                    },
+                    "coverage": {
+                        m: s.get(f"{m}_covered") for m in ("LER", "G", "CCT")
                     },
                     "G_by_class": g_by_class(
                         [r for r in recs if r["band_set"] == s["band_set"]],
@@ -208,9 +248,9 @@ def main(argv=None) -> int:
 
     unseen = {}
     ctx = get_context("search", None, 0, "auto")
-    for label, known in (("inversion", False), ("inversion-moon", True)):
+    for label, known, calibration in UNSEEN:
         recs = inv_mod.leave_one_class_out(
-            ctx, band_set("recommended"), moon_known=known
+            ctx, band_set("recommended"), moon_known=known, calibration=calibration
         )
         unseen[label] = {"by_class": _by_class(recs), "overall": _overall(recs)}
         log(f"unseen types, {label}: {time.time() - t0:.0f} s")
@@ -238,6 +278,11 @@ def main(argv=None) -> int:
             "partitions": args.partitions,
             "moon_states": {k: v for k, v in MOON_STATES.items()},
             "estimators": list(ESTIMATORS),
+            "estimators_on_make_estimate_scenes": [*ESTIMATORS, LOCO],
+            "unseen_types": [
+                {"label": a, "moon_known": b, "interval_calibration": c}
+                for a, b, c in UNSEEN
+            ],
             "scored_lamps": "measured lamps only",
             "training_lamps": "measured lamps only",
         },

@@ -46,8 +46,19 @@ def test_plan_drops_what_it_says_and_nothing_else():
     assert stages == sorted(stages)
     knn = [p for p, _, e in units if not e.startswith("inversion")]
     assert knn == sorted(knn) and len(knn) == 4 * 2 * 4
-    full, none = cp.plan_units(designs, 2, surface_modes=True, one_band_inversion=True)
+    full, none = cp.plan_units(
+        designs, 2, surface_modes=True, one_band_inversion=True, moon_all_designs=True
+    )
     assert none == [] and len(full) == 2 * (6 + 6 + 4 + 4)
+    # the told-Moon inversion: not for a 3-band reference unless asked
+    three = {"classification": 6, "jilin-1-03b": 3}
+    units, dropped = cp.plan_units(three, 1)
+    assert ("jilin-1-03b", "inversion-moon") in {
+        (d["design"], d["estimator"]) for d in dropped
+    }
+    assert (0, "classification", "inversion-moon") in units
+    units, _ = cp.plan_units(three, 1, moon_all_designs=True)
+    assert (0, "jilin-1-03b", "inversion-moon") in units
     # surface knowledge never for a reference sensor
     assert not any(e in cp.SURFACE_ESTIMATORS and d == "sdgsat-1" for _, d, e in full)
 

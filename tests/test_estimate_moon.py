@@ -61,3 +61,33 @@ def test_unseen_types_lines():
     text = em.readme_text({"partitions": 4, "rows": [], "unseen_types": unseen})
     assert "Unseen lamp types (recommended bands, `inversion-moon`" in text
     assert "level-1 type right 0.40" in text and "out of range 0" in text
+
+
+def test_coverage_column_and_where_held_out_classes_went():
+    row = {
+        "moon": "none and full (as make estimate)", "band_set": "recommended",
+        "estimator": "inversion-moon-loco", "LER": 18.0, "LER_sd": 0.7,
+        "G": 0.383, "G_sd": 0.043, "CCT": 412.0, "CCT_sd": 9.0,
+        "G_by_class": {}, "coverage": {"LER": 0.97, "G": 0.951, "CCT": 0.96},
+    }  # fmt: skip
+    ridge = dict(row, estimator="ridge", coverage={"LER": None, "G": None})
+    o = {
+        "LER_covered": 0.8, "G_covered": 0.81, "CCT_covered": 0.85,
+        "level1_correct": 0.4, "unexplained": 0.02, "out_of_range": 0,
+    }  # fmt: skip
+    by_class = {
+        "hps": {"level1_predicted": {"led": 0.7, "hid": 0.2, "lps": 0.05, "x": 0.05}},
+        "mercury": {"level1_correct": 0.0},
+    }
+    text = em.readme_text(
+        {
+            "partitions": 4,
+            "rows": [row, ridge],
+            "unseen_types": {em.LOCO: {"overall": o, "by_class": by_class}},
+        }
+    )
+    assert "| 0.97/0.95/0.96 |" in text
+    assert "| ridge |" in text and text.count("| n/a |") >= 1
+    assert "hps → led 0.70, hid 0.20, lps 0.05" in text and "x 0.05" not in text
+    assert "mercury →" not in text
+    assert [u[0] for u in em.UNSEEN] == ["inversion", "inversion-moon", em.LOCO]
