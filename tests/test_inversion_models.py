@@ -324,17 +324,23 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
     monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
     monkeypatch.setattr(inv_mod, "fit_inversion", fake_fit)
     # what the stub ignores: the surface prior and the Sentinel-2 retrieval
-    monkeypatch.setattr(inv_mod, "surface_basis", inv_mod._basis)
+    basis = inv_mod._basis(GRID)  # computed before the patch: no recursion
+    monkeypatch.setattr(inv_mod, "surface_basis", lambda grid: basis)
     monkeypatch.setattr(inv_mod, "measured_surfaces", lambda *a, **k: None)
     moon = np.zeros(len(row_lamp))  # the fake context's rows are moonless
     monkeypatch.setattr(inv_mod, "context_moon", lambda c: moon)
     ctx = _fake_context(case)
     ctx.table.n_lamps = len(lamps.ids)
-    for n in (0, 4):
-        args = types.SimpleNamespace(estimator="inversion", modelled_per_class=n)
+    for n, intervals in ((0, "known-types"), (4, "any-type")):
+        args = types.SimpleNamespace(
+            estimator="inversion", modelled_per_class=n, intervals=intervals
+        )
         _, _, desc = _cmd_evaluate._fit(args, ctx, FIVE, "unknown")
         assert seen["modelled_per_class"] == n
         assert seen["row_moon"] is moon  # told the Moon, not fitted
+        want = {"known-types": "lamps", "any-type": "classes"}[intervals]
+        assert seen["calibration"] == want
+        assert ("held out in turn" in desc) == (intervals == "any-type")
         if n:
             assert "3 measured library lamps and 4 modelled lamps" in desc
             assert "4 per class of mercury" in desc
@@ -376,6 +382,12 @@ def test_evaluate_json_says_how_many_modelled_lamps(
     assert main([*argv, "--estimator", "ridge", "--modelled-per-class", "2"]) == 2
     assert "--estimator inversion only" in capsys.readouterr().err
     assert main([*argv, "--modelled-per-class", "-1"]) == 2
+    assert main([*argv, "--intervals", "any-type"]) == 0
+    assert json.loads(capsys.readouterr().out)["scene"]["intervals"] == "any-type"
+    assert main([*argv, "--estimator", "ridge", "--intervals", "any-type"]) == 2
+    assert "--intervals any-type: for --estimator inversion only" in (
+        capsys.readouterr().err
+    )
 
 
 def test_unseen_class_never_gets_a_model_of_itself(case, monkeypatch):

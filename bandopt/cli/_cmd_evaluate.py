@@ -71,6 +71,16 @@ def register(subparsers):
         "(several minutes); the JSON says modelled_lamps_used",
     )
     p.add_argument(
+        "--intervals",
+        choices=tuple(INTERVALS),
+        default="known-types",
+        help="inversion only: what its 90 %% intervals are calibrated for. "
+        "known-types (default): new lamps of the library's lamp types (conformal "
+        "factors from held-out lamps); any-type: also lamp types the library "
+        "lacks (factors from each library class held out in turn; wider; "
+        "results/estimate_moon compares their coverage)",
+    )
+    p.add_argument(
         "--surface",
         metavar="NAME|FILE",
         default=None,
@@ -84,6 +94,10 @@ def register(subparsers):
     )
     p.add_argument("--json", action="store_true", help="print JSON (input order)")
     p.set_defaults(func=run)
+
+
+INTERVALS = {"known-types": "lamps", "any-type": "classes"}
+"""`--intervals` choice -> `bandopt.inversion.fit_inversion(calibration=)`."""
 
 
 def read_reflectance(path, grid):
@@ -237,6 +251,7 @@ def _fit(args, ctx, bands, mode):
             # the Moon's brightness of every training scene is known (as it is
             # for an acquisition), so it is told, not fitted
             row_moon=inv_mod.context_moon(ctx),
+            calibration=INTERVALS[args.intervals],
         )
         added = inv.diagnostics["modelled_lamps"]["added"]
         n_model = sum(added.values())
@@ -251,7 +266,13 @@ def _fit(args, ctx, bands, mode):
             f"physics-based inversion (bandopt.inversion), prior over {prior}, "
             f"surface {mode}; Moon brightness told (training scenes: their own; "
             f"your scene: moonless), not fitted; sigma_rel {inv.sigma_rel:g}, 90 % "
-            "intervals split-conformal on lamp-grouped folds"
+            + (
+                "intervals split-conformal on lamp-grouped folds (calibrated for "
+                "new lamps of the library's types)"
+                if args.intervals == "known-types"
+                else "intervals split-conformal on library classes held out in "
+                "turn (calibrated for lamp types the library lacks too)"
+            )
         )
         return inv, basis, desc
     fit = fit_estimator if args.estimator == "ridge" else fit_kernel_estimator
@@ -349,6 +370,12 @@ def run(args) -> int:
             "--modelled-per-class: modelled lamps go into the prior of "
             f"--estimator inversion only (got --estimator {args.estimator})."
         )
+    if args.intervals != "known-types" and args.estimator != "inversion":
+        raise ValueError(
+            f"--intervals {args.intervals}: for --estimator inversion only (got "
+            f"--estimator {args.estimator}; its intervals are split-conformal on "
+            "lamp-grouped folds)."
+        )
     bands, entry = _load(args.bands)
     name = entry.key if entry is not None else bands.name
     warnings = band_set_warnings(bands, args.bands, log=sys.stderr)
@@ -422,6 +449,7 @@ def run(args) -> int:
             "estimator": args.estimator,
             "estimator_description": desc,
             "surface_knowledge": mode,
+            "intervals": args.intervals if args.estimator == "inversion" else None,
             "nir_policy": NIR_POLICY,
         },
         "lamps": rows,
