@@ -524,7 +524,30 @@ def readme_text(summary, paired, unseen, variants=()) -> str:
             f"{o['unexplained']:.2f}; estimates outside the physical range: "
             f"{o['out_of_range']}. Per class: `unseen_types.json`.",
         ]
+        lines += where_lines(u.get("by_class"))
     return "\n".join(lines) + "\n"
+
+
+def where_lines(by_class) -> list[str]:
+    """One line saying where each held-out class's pixels went (its three
+    most frequent level-1 families and their fractions) from an unseen-types
+    `by_class`; none when no class has `level1_predicted`."""
+    where = {
+        c: row["level1_predicted"]
+        for c, row in (by_class or {}).items()
+        if row.get("level1_predicted")
+    }
+    if not where:
+        return []
+    parts = [
+        f"{c} → " + ", ".join(f"{k} {v:.2f}" for k, v in list(frac.items())[:3])
+        for c, frac in where.items()
+    ]
+    return [
+        "Where each held-out class's pixels went (level-1 family, fraction): "
+        + "; ".join(parts)
+        + "."
+    ]
 
 
 def _training_sentence(summary) -> str:

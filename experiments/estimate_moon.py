@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.estimate import diff_cells
+from experiments.estimate import diff_cells, where_lines
 
 
 MOON_STATES = {
@@ -154,21 +154,7 @@ def readme_text(summary: dict) -> str:
             f"{o['CCT_covered']:.2f}; level-1 type right {o['level1_correct']:.2f}; "
             f"unexplained {o['unexplained']:.2f}; out of range {o['out_of_range']}.",
         ]
-        where = {
-            c: row["level1_predicted"]
-            for c, row in (u.get("by_class") or {}).items()
-            if row.get("level1_predicted")
-        }
-        if where:
-            parts = [
-                f"{c} → "
-                + ", ".join(f"{k} {v:.2f}" for k, v in list(frac.items())[:3])
-                for c, frac in where.items()
-            ]
-            lines.append(
-                "Where each held-out class's pixels went (level-1 family, "
-                "fraction): " + "; ".join(parts) + "."
-            )
+        lines += where_lines(u.get("by_class"))
     return "\n".join(lines) + "\n"
 
 
