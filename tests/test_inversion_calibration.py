@@ -41,7 +41,7 @@ def pair(case):
 
 
 def test_same_point_estimates_other_intervals(case, pair):
-    lamps, row_lamp, rad, _train, test, *_ = case
+    _lamps, row_lamp, rad, _train, test, *_ = case
     by_lamps, by_classes, _ = pair
     assert by_lamps.diagnostics["calibration"] == "lamps"
     assert by_classes.diagnostics["calibration"] == "classes"

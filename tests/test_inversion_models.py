@@ -382,10 +382,13 @@ def test_evaluate_json_says_how_many_modelled_lamps(
     assert main([*argv, "--estimator", "ridge", "--modelled-per-class", "2"]) == 2
     assert "--estimator inversion only" in capsys.readouterr().err
     assert main([*argv, "--modelled-per-class", "-1"]) == 2
-    assert main([*argv, "--intervals", "any-type"]) == 0
+    assert main(argv) == 0  # the default: calibrated for unseen types too
     assert json.loads(capsys.readouterr().out)["scene"]["intervals"] == "any-type"
-    assert main([*argv, "--estimator", "ridge", "--intervals", "any-type"]) == 2
-    assert "--intervals any-type: for --estimator inversion only" in (
+    assert main([*argv, "--intervals", "known-types"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["scene"]["intervals"] == "known-types"
+    assert main([*argv, "--estimator", "ridge", "--intervals", "known-types"]) == 2
+    assert "--intervals known-types: for --estimator inversion only" in (
         capsys.readouterr().err
     )
 
