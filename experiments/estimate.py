@@ -717,7 +717,7 @@ def _figures(summary, unseen, out, preset):
     )
     fig.suptitle(f"Held-out measured lamps (preset {preset})")
     fig.tight_layout(rect=(0, 1.2 / (1.5 + 0.22 * n), 1, 1))
-    fig.savefig(out / "errors.png", dpi=90)
+    fig.savefig(out / "errors.png", dpi=90, bbox_inches="tight")  # long labels
     plt.close(fig)
 
     inv_rows = [r for r in summary if r["estimator"] in INVERSIONS]
