@@ -272,7 +272,11 @@ def main(argv=None) -> int:
         update_recommendation("estimation", _recommendation(summary, coverage))
     computed_at = None
     if args.summarise_only and (out / "manifest.json").is_file():
-        computed_at = json.loads((out / "manifest.json").read_text()).get("git_commit")
+        prev = json.loads((out / "manifest.json").read_text())
+        # a summary of a summary keeps the commit the records were computed at
+        computed_at = (prev.get("config") or {}).get(
+            "records_computed_at_commit"
+        ) or prev.get("git_commit")
     config = {
         "preset": preset,
         "partitions": parts,
