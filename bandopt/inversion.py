@@ -1214,6 +1214,11 @@ def fit_inversion(
     def rows_of(lamp_idx):
         return np.flatnonzero(np.isin(row_lamp, lamp_idx))
 
+    moon_rows = None if row_moon is None else np.asarray(row_moon, float)
+
+    def moon_of(rows):
+        return None if moon_rows is None else moon_rows[rows]
+
     def surf(rows):
         if row_surface is None:
             return None
@@ -1241,7 +1246,7 @@ def fit_inversion(
             surf(rows),
             sigmas=sigma_grid,
             evidence=True,
-            moon=None if row_moon is None else np.asarray(row_moon, float)[rows],
+            moon=moon_of(rows),
         )
         w = class_balanced_weights(l2[va])
         rl = row_lamp[rows]
@@ -1279,7 +1284,7 @@ def fit_inversion(
             post, misfit = inv.posterior(
                 radiance[rows],
                 surf(rows),
-                moon=None if row_moon is None else np.asarray(row_moon, float)[rows],
+                moon=moon_of(rows),
             )
             mean, rng, _ = _posterior_metrics(post, inv.prior)
             held_out.append((rows, mean, rng, misfit, va))

@@ -28,18 +28,13 @@ from bandopt.datasets.lamps import library
 from bandopt.forward import noise_draws
 from bandopt.knn import features
 from bandopt.scene import build_scenarios
-from bandopt.sensor import BandSet
+from tests._bands import FIVE
 
 
 CLASSES = ("hps", "led_warm", "led_cool", "fluorescent_linear", "mercury")
 MODELLED = ("mercury",)
 N_MODEL = 3
-BANDS = BandSet.from_physical(
-    np.array([450.0, 530.0, 600.0, 680.0, 820.0]),
-    np.array([60.0, 60.0, 50.0, 60.0, 80.0]),
-    6.0,
-    name="t",
-)
+BANDS = FIVE
 
 
 def _ids():

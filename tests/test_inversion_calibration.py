@@ -9,7 +9,8 @@ import pytest
 
 from bandopt import inversion as inv_mod
 from bandopt.estimate import lamp_truth
-from tests.test_inversion_models import FIVE, GRID, _case, _fake_context
+from tests._bands import FIVE, GRID
+from tests.test_inversion_models import _case, _fake_context
 
 
 @pytest.fixture(scope="module")

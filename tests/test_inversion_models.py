@@ -15,21 +15,14 @@ import pytest
 from bandopt import inversion as inv_mod, lampmodels
 from bandopt.datasets import surfaces
 from bandopt.folds import stratified_lamp_folds
-from bandopt.sensor import BandSet
+from tests._bands import FIVE, GRID
 
 
-GRID = np.arange(380.0, 901.0)
 CLASSES = ("hps", "led_warm", "led_cool", "fluorescent_linear", "mercury")
 N_MODEL = 6
 MODELLED = ("mercury",)
 AMBER = ("led_amber",)
 """A class with >= 2 training lamps in every inner fit of the tiny context."""
-FIVE = BandSet.from_physical(
-    np.array([450.0, 530.0, 600.0, 680.0, 820.0]),
-    np.array([60.0, 60.0, 50.0, 60.0, 80.0]),
-    6.0,
-    name="t",
-)
 
 
 def _case():

@@ -10,16 +10,7 @@ import pytest
 
 from bandopt import inversion as inv_mod
 from bandopt.scene import build_scenarios
-from bandopt.sensor import BandSet
-
-
-GRID = np.arange(380.0, 901.0)
-FIVE = BandSet.from_physical(
-    np.array([450.0, 530.0, 600.0, 680.0, 820.0]),
-    np.array([60.0, 60.0, 50.0, 60.0, 80.0]),
-    6.0,
-    name="t",
-)
+from tests._bands import FIVE, GRID
 
 
 def test_known_amplitude_misfit_is_least_squares_with_the_moon_subtracted():

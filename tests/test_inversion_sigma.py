@@ -8,16 +8,9 @@ import pytest
 from bandopt import inversion as inv_mod
 from bandopt.datasets import surfaces
 from bandopt.folds import stratified_lamp_folds
-from bandopt.sensor import BandSet
+from tests._bands import FIVE, GRID
 
 
-GRID = np.arange(380.0, 901.0)
-FIVE = BandSet.from_physical(
-    np.array([450.0, 530.0, 600.0, 680.0, 820.0]),
-    np.array([60.0, 60.0, 50.0, 60.0, 80.0]),
-    6.0,
-    name="t",
-)
 SIGMAS = (0.003, 0.01, 0.03, 0.1, 0.3)
 
 
