@@ -10,7 +10,7 @@ SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: run test test-slow lint bench atmospheres surfaces library lamp-models ler \
         g cct sweep compare classify classify-partitions radiometry spatial \
-        noise-aware estimate estimate-moon \
+        noise-aware estimate estimate-moon estimate-mix \
         before-after report check-report docs tutorial clean
 
 $(STAMP): pyproject.toml requirements.lock
@@ -74,6 +74,9 @@ estimate: $(STAMP)  ## inversion vs regression on held-out and unseen lamps, and
 
 estimate-moon: $(STAMP)  ## the estimate's scenes split by Moon state: where the G error comes from (about 10 min)
 	$(BIN)/python -m experiments.estimate_moon
+
+estimate-mix: $(STAMP)  ## the told-Moon inversion with same-class mixtures of its lamps in the prior, on the estimate's scenes and unseen types (about 90 min; resumable: ARGS=--resume)
+	$(BIN)/python -m experiments.estimate_mix $(ARGS)
 
 classify: $(STAMP)  ## lamp-type classification (writes recommendation.json "classification")
 	$(BIN)/python -m experiments.classify
