@@ -25,7 +25,12 @@ pixel's brightness: `α` and `β` are solved for in closed form.
   holds modelled lamps of rare classes (`modelled_lamps`): spectra of the
   physical lamp models (`bandopt.lampmodels`) calibrated on that fit's
   measured training lamps only, labelled with their class, in the prior and
-  the type posteriors but never scored.
+  the type posteriors but never scored. Optionally (`mixtures > 0`; the
+  default of `bandopt evaluate`, estimator `inversion-moon-mix`) the prior
+  also holds pairwise blends of two of its own lamps of one class
+  (`mixture_lamps`): a new lamp usually lies between the library's lamps,
+  and with the test lamp itself in the prior the error is ~0, so the
+  prior's coverage of lamp space, not the scene, is what limits it.
 - Surface: a low-rank basis (weighted PCA, each surface type the same weight)
   of the library reflectances (`bandopt.datasets.surfaces`), with candidate
   surfaces given by what is known (`SURFACE_MODES`): nothing (the mean of

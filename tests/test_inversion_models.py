@@ -307,10 +307,16 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
         seen.update(kw)
         n = kw["modelled_per_class"]
         added = {"mercury": n} if n else {}
+        n_mix = 6 if kw["mixtures"] else 0
         return types.SimpleNamespace(
-            prior=types.SimpleNamespace(ids=("a", "b", "c") + ("m",) * n),
+            prior=types.SimpleNamespace(
+                ids=("a", "b", "c") + ("m",) * n + ("mix:a+b@0.5",) * n_mix
+            ),
             sigma_rel=0.03,
-            diagnostics={"modelled_lamps": {"n_per_class": n, "added": added}},
+            diagnostics={
+                "modelled_lamps": {"n_per_class": n, "added": added},
+                "mixtures": {"n": n_mix},
+            },
         )
 
     setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
@@ -324,12 +330,17 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
     monkeypatch.setattr(inv_mod, "context_moon", lambda c: moon)
     ctx = _fake_context(case)
     ctx.table.n_lamps = len(lamps.ids)
-    for n, intervals in ((0, "known-types"), (4, "any-type")):
+    for n, intervals, mix in ((0, "known-types", 0), (4, "any-type", 200)):
         args = types.SimpleNamespace(
-            estimator="inversion", modelled_per_class=n, intervals=intervals
+            estimator="inversion",
+            modelled_per_class=n,
+            intervals=intervals,
+            mixtures=mix,
         )
         _, _, desc = _cmd_evaluate._fit(args, ctx, FIVE, "unknown")
         assert seen["modelled_per_class"] == n
+        assert seen["mixtures"] == mix
+        assert ("with 6 pairwise blends of two measured lamps" in desc) == bool(mix)
         assert seen["row_moon"] is moon  # told the Moon, not fitted
         want = {"known-types": "lamps", "any-type": "classes"}[intervals]
         assert seen["calibration"] == want
@@ -358,7 +369,10 @@ def test_evaluate_json_says_how_many_modelled_lamps(
 
     def fake_fit(args, ctx, bands, mode):
         seen.append(args.modelled_per_class)
+        mixtures.append(args.mixtures)
         return inv, basis, "stub"
+
+    mixtures = []
 
     monkeypatch.setattr(bandopt.search, "get_context", lambda *a, **k: None)
     monkeypatch.setattr(_cmd_evaluate, "_fit", fake_fit)
@@ -375,6 +389,14 @@ def test_evaluate_json_says_how_many_modelled_lamps(
     assert main([*argv, "--estimator", "ridge", "--modelled-per-class", "2"]) == 2
     assert "--estimator inversion only" in capsys.readouterr().err
     assert main([*argv, "--modelled-per-class", "-1"]) == 2
+    assert main([*argv, "--mixtures", "-1"]) == 2
+    assert "--mixtures -1: must be >= 0" in capsys.readouterr().err
+    assert main([*argv, "--estimator", "ridge", "--mixtures", "5"]) == 2
+    assert "--estimator inversion only" in capsys.readouterr().err
+    mixtures.clear()
+    assert main([*argv, "--mixtures", "0"]) == 0
+    assert json.loads(capsys.readouterr().out)["mixtures_per_class"] == 0
+    assert mixtures == [0]
     assert main(argv) == 0  # the default: calibrated for unseen types too
     assert json.loads(capsys.readouterr().out)["scene"]["intervals"] == "any-type"
     assert main([*argv, "--intervals", "known-types"]) == 0

@@ -345,6 +345,14 @@ def test_evaluate_json_schema(tmp_path, capsys):
             e, iv = r["estimate"][m], r["interval90"][m]
             assert lo <= iv[0] <= e <= iv[1] <= hi, (m, e, iv)
     assert out["notes"][0]["nir_extension"] == "hps"
+    # the default prior holds same-class blends of the library lamps too
+    from bandopt.cli._cmd_evaluate import MIXTURES_DEFAULT
+    from bandopt.inversion import MIX_PAIRS
+
+    assert MIXTURES_DEFAULT == MIX_PAIRS
+    assert out["mixtures_per_class"] == MIX_PAIRS
+    desc = out["scene"]["estimator_description"]
+    assert "pairwise blends of two measured lamps" in desc
     assert main(["evaluate", "--bands", "no-such-sensor", "--lamps", str(f1)]) == 2
 
 

@@ -71,6 +71,18 @@ def register(subparsers):
         "(several minutes); the JSON says modelled_lamps_used",
     )
     p.add_argument(
+        "--mixtures",
+        type=int,
+        default=MIXTURES_DEFAULT,
+        metavar="N",
+        help="inversion only: also put pairwise blends of two measured library "
+        "lamps of one class (flux fractions 1/4, 1/2, 3/4) into the prior, up to "
+        f"N pairs per class (default {MIXTURES_DEFAULT}; 0: measured lamps only). "
+        "They fill the gaps between the library's lamps; their LER, G and CCT "
+        "are computed from the blended spectra, so still physical "
+        "(results/estimate_mix)",
+    )
+    p.add_argument(
         "--intervals",
         choices=tuple(INTERVALS),
         default="any-type",
@@ -97,6 +109,10 @@ def register(subparsers):
     p.add_argument("--json", action="store_true", help="print JSON (input order)")
     p.set_defaults(func=run)
 
+
+MIXTURES_DEFAULT = 200
+"""Default of `--mixtures`: `bandopt.inversion.MIX_PAIRS` (not imported here:
+the parser is built without JAX)."""
 
 INTERVALS = {"known-types": "lamps", "any-type": "classes"}
 """`--intervals` choice -> `bandopt.inversion.fit_inversion(calibration=)`."""
@@ -254,15 +270,22 @@ def _fit(args, ctx, bands, mode):
             # for an acquisition), so it is told, not fitted
             row_moon=inv_mod.context_moon(ctx),
             calibration=INTERVALS[args.intervals],
+            mixtures=args.mixtures,
         )
         added = inv.diagnostics["modelled_lamps"]["added"]
         n_model = sum(added.values())
-        prior = f"{len(inv.prior.ids) - n_model} measured library lamps"
+        n_mix = inv.diagnostics["mixtures"]["n"]
+        prior = f"{len(inv.prior.ids) - n_model - n_mix} measured library lamps"
         if n_model:
             prior += (
                 f" and {n_model} modelled lamps ({args.modelled_per_class} per class "
                 f"of {', '.join(added)}; bandopt.lampmodels calibrated on the "
                 "training lamps of each fit only)"
+            )
+        if n_mix:
+            prior += (
+                f", with {n_mix} pairwise blends of two measured lamps of one "
+                f"class (up to {args.mixtures} pairs per class)"
             )
         desc = (
             f"physics-based inversion (bandopt.inversion), prior over {prior}, "
@@ -372,6 +395,13 @@ def run(args) -> int:
             "--modelled-per-class: modelled lamps go into the prior of "
             f"--estimator inversion only (got --estimator {args.estimator})."
         )
+    if args.mixtures < 0:
+        raise ValueError(f"--mixtures {args.mixtures}: must be >= 0.")
+    if args.mixtures != MIXTURES_DEFAULT and args.estimator != "inversion":
+        raise ValueError(
+            "--mixtures: blends go into the prior of --estimator inversion only "
+            f"(got --estimator {args.estimator})."
+        )
     if args.intervals != "any-type" and args.estimator != "inversion":
         raise ValueError(
             f"--intervals {args.intervals}: for --estimator inversion only (got "
@@ -458,6 +488,7 @@ def run(args) -> int:
         "notes": notes,
         "warnings": warnings,
         "modelled_lamps_used": args.modelled_per_class,
+        "mixtures_per_class": args.mixtures if args.estimator == "inversion" else 0,
     }
     if args.plot:
         _plot(rows, name, args.estimator, args.plot)
