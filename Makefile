@@ -75,7 +75,7 @@ estimate: $(STAMP)  ## inversion vs regression on held-out and unseen lamps, and
 estimate-moon: $(STAMP)  ## the estimate's scenes split by Moon state: where the G error comes from (about 10 min)
 	$(BIN)/python -m experiments.estimate_moon
 
-estimate-mix: $(STAMP)  ## the told-Moon inversion with same-class mixtures of its lamps in the prior, on the estimate's scenes and unseen types (about 90 min; resumable: ARGS=--resume)
+estimate-mix: $(STAMP)  ## the told-Moon inversion with same-class mixtures of its lamps in the prior, on the estimate's scenes and unseen types (about 50 min; resumable: ARGS=--resume)
 	$(BIN)/python -m experiments.estimate_mix $(ARGS)
 
 classify: $(STAMP)  ## lamp-type classification (writes recommendation.json "classification")

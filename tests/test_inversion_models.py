@@ -330,7 +330,7 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
     monkeypatch.setattr(inv_mod, "context_moon", lambda c: moon)
     ctx = _fake_context(case)
     ctx.table.n_lamps = len(lamps.ids)
-    for n, intervals, mix in ((0, "known-types", 0), (4, "any-type", 200)):
+    for n, intervals, mix in ((0, "known-types", 0), (4, "any-type", 50)):
         args = types.SimpleNamespace(
             estimator="inversion",
             modelled_per_class=n,

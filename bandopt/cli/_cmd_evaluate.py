@@ -110,7 +110,7 @@ def register(subparsers):
     p.set_defaults(func=run)
 
 
-MIXTURES_DEFAULT = 200
+MIXTURES_DEFAULT = 50
 """Default of `--mixtures`: `bandopt.inversion.MIX_PAIRS` (not imported here:
 the parser is built without JAX)."""
 
