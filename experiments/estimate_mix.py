@@ -140,7 +140,8 @@ def figure(summary: dict, path: Path) -> None:
         if k not in keys:
             keys.append(k)
     by = {(r["band_set"], r["surface"], r["estimator"]): r for r in summary["rows"]}
-    fig, axes = plt.subplots(1, 3, figsize=(14, 0.6 + 0.45 * len(keys)), sharey=True)
+    height = 1.8 + 0.45 * len(keys)
+    fig, axes = plt.subplots(1, 3, figsize=(14, height), sharey=True)
     y = np.arange(len(keys))[::-1]
     for ax, (m, unit) in zip(
         axes, (("LER", "lm/W"), ("G", "1"), ("CCT", "K")), strict=True
@@ -161,7 +162,9 @@ def figure(summary: dict, path: Path) -> None:
         "same-class mixtures (mean ± SD over partitions)",
         fontsize=10,
     )
-    fig.tight_layout(rect=(0, 0.12, 1, 1))
+    fig.subplots_adjust(
+        left=0.12, right=0.98, top=1 - 0.55 / height, bottom=1.0 / height, wspace=0.08
+    )
     fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
 

@@ -1,0 +1,89 @@
+"""`experiments/estimate_mix.py`: its pure parts (the README table, the
+paired rows, the figure) on a hand-made summary."""
+
+import numpy as np
+
+from experiments import estimate_mix as em
+
+
+def _summary():
+    def row(est, ler, g, cct, l1):
+        return {
+            "band_set": "recommended", "surface": "unknown", "estimator": est,
+            "LER": ler, "LER_sd": 0.5, "G": g, "G_sd": 0.02, "CCT": cct,
+            "CCT_sd": 9.0, "LER_covered": 0.92, "G_covered": 0.9,
+            "CCT_covered": 0.91, "level1_correct": l1,
+        }  # fmt: skip
+
+    o = {
+        "LER_covered": 0.8, "G_covered": 0.81, "CCT_covered": 0.85,
+        "level1_correct": 0.4, "unexplained": 0.02, "out_of_range": 0,
+    }  # fmt: skip
+    return {
+        "partitions": 4,
+        "mix_pairs": 50,
+        "mix_fractions": [0.25, 0.5, 0.75],
+        "oracle": {"LER": 0.04, "G": 0.0001, "sigma_rel": 0.003},
+        "rows": [
+            row("inversion-moon", 18.0, 0.38, 412.0, 0.83),
+            row("inversion-moon-mix", 14.6, 0.29, 365.0, 0.85),
+        ],
+        "paired": [
+            {
+                "band_set": "recommended",
+                "surface": "unknown",
+                "estimator": "inversion-moon-mix",
+                "vs": "inversion-moon",
+                "LER_diff": -3.4,
+                "LER_diff_sd": 0.6,
+                "G_diff": -0.09,
+                "G_diff_sd": 0.01,
+            },
+            {
+                "band_set": "sdgsat-1",
+                "surface": "unknown",
+                "estimator": "inversion-moon-mix",
+                "vs": "recommended",
+                "LER_diff": 2.0,
+                "LER_diff_sd": 0.5,
+            },
+        ],
+        "unseen_types": {"inversion-moon-mix": {"overall": o, "by_class": {}}},
+    }
+
+
+def test_readme_table_and_paired_rows():
+    text = em.readme_text(_summary())
+    assert "mean ± SD over 4 partitions" in text
+    assert "up to 50 pairs per class, flux fractions 0.25, 0.5, 0.75" in text
+    assert "0.04 lm/W" in text  # the test-lamp-in-prior floor
+    assert (
+        "| recommended | unknown | inversion-moon-mix | 14.6 ± 0.5 | 0.290 ± 0.020 "
+        "| 365 ± 9 | 0.92/0.90/0.91 | 0.85 |"
+    ) in text
+    assert (
+        "| recommended: mix − no mix | inversion-moon-mix | unknown | -3.4 ± 0.6 "
+        "| -0.090 ± 0.010 | n/a |"
+    ) in text
+    assert (
+        "| sdgsat-1 − recommended | inversion-moon-mix | unknown | +2.0 ± 0.5" in text
+    )
+    assert "level-1 type right 0.40" in text
+
+
+def test_missing_values_are_said_not_invented():
+    s = _summary()
+    s["rows"][0].update(G=None, G_covered=None, level1_correct=None)
+    text = em.readme_text(s)
+    assert "| recommended | unknown | inversion-moon | 18.0 ± 0.5 | n/a |" in text
+    assert "0.92/n/a/0.91 | n/a |" in text
+
+
+def test_figure_is_written(tmp_path):
+    path = tmp_path / "errors.png"
+    em.figure(_summary(), path)
+    from matplotlib.image import imread
+
+    img = imread(path)
+    assert img.ndim == 3 and img.shape[0] > 100 and img.shape[1] > 500
+    assert np.ptp(img[..., :3]) > 0  # not blank
