@@ -335,3 +335,35 @@ def test_defaults_reproduce_the_scores_before_the_new_options(result, table, ban
     assert knn.level2.confusion == KNN_LEVEL2_CONFUSION
     assert [f["k"] for f in knn.level2.folds] == [3, 3, 3]
     assert "modelled_per_class" not in knn.config
+    assert "mixtures" not in result.config
+
+
+def test_mixtures_reach_every_fold_and_the_config(table, bands, monkeypatch):
+    """`mixtures=N` puts same-class blends into every outer fold's inversion
+    (never of its test lamps: `_never_scored` and the fit's own checks), and
+    the config says N; the KNN refuses it."""
+    seen = []
+    real = inv_mod.fit_inversion
+
+    def spy(*a, **kw):
+        inv = real(*a, **kw)
+        seen.append((kw["mixtures"], inv.diagnostics["mixtures"]["n"]))
+        return inv
+
+    monkeypatch.setattr(inv_mod, "fit_inversion", spy)
+    res = evaluate_band_set(table, bands, noise=True, estimator="inversion", mixtures=2)
+    assert res.config["mixtures"] == 2
+    assert len(seen) == 3 and all(m == 2 and n > 0 for m, n in seen)
+    assert 0.0 <= res.level2.macro_f1 <= 1.0
+    with pytest.raises(ValueError, match="mixtures"):
+        evaluate_band_set(table, bands, noise=True, mixtures=2)
+
+
+def test_cli_mixtures_is_for_the_inversion_only(capsys):
+    from bandopt.cli import main
+
+    argv = ["classify", "--bands", "sdgsat-1", "--scenarios", "quick"]
+    assert main([*argv, "--mixtures", "3"]) == 2
+    assert "--estimator inversion only" in capsys.readouterr().err
+    assert main([*argv, "--estimator", "inversion", "--mixtures", "-1"]) == 2
+    assert "must be >= 0" in capsys.readouterr().err

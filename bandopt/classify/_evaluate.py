@@ -76,6 +76,7 @@ def evaluate_band_set(
     modelled_classes: Sequence[str] = MODELLED_CLASSES,
     surface_mode: str = "unknown",
     moon_known: bool = False,
+    mixtures: int = 0,
 ) -> BandSetScores:
     """Outer-fold scores of one band set (or one band set per outer fold, a
     sequence, for bands searched inside each fold).
@@ -90,7 +91,9 @@ def evaluate_band_set(
     inversion knows of the surface, "unknown" (default), "class" or
     "measured" (`evaluate_inversion`); the KNN knows none ("unknown" only).
     `moon_known`: the inversion is told each pixel's Moon brightness instead
-    of fitting it (`evaluate_inversion`; inversion only).
+    of fitting it (`evaluate_inversion`; inversion only). `mixtures`:
+    same-class blends of its lamps in the inversion's prior, up to that many
+    pairs per class (`evaluate_inversion`; inversion only, default 0).
     With `modelled_per_class` > 0, `config` says `modelled_per_class` and
     the classes that got lamps in each outer fold (`modelled_lamps`); with
     the default 0 the result is byte for byte what it was before the option
@@ -129,6 +132,12 @@ def evaluate_band_set(
             modelled_classes=modelled_classes,
             surface_mode=surface_mode,
             moon_known=moon_known,
+            mixtures=mixtures,
+        )
+    if mixtures:
+        raise ValueError(
+            "mixtures: blends go into the prior of estimator 'inversion'; the "
+            "KNN trains on measured lamps' scenes."
         )
     if moon_known:
         raise ValueError(

@@ -207,6 +207,7 @@ def evaluate_inversion(
     modelled_classes: Sequence[str] = inv_mod.MODELLED_CLASSES,
     surface_mode: str = SURFACE_MODE,
     moon_known: bool = False,
+    mixtures: int = 0,
 ) -> BandSetScores:
     """Outer-fold classification scores of the inversion for one band set, a
     `BandSetScores` as from `evaluate_band_set` (see the module docstring).
@@ -225,7 +226,10 @@ def evaluate_inversion(
     inversion is told each row's Moon brightness (`table_moon`, as
     `bandopt.inversion.MOON_ESTIMATOR`) in its inner folds and on the test
     pixels instead of fitting it; `config` then says `"moon": "known per
-    pixel"` (default False: fitted, no such key, the config as before)."""
+    pixel"` (default False: fitted, no such key, the config as before).
+    `mixtures`: pairwise same-class blends of each prior's own lamps in the
+    prior, up to that many pairs per class (`bandopt.inversion.mixture_lamps`;
+    default 0: none, no such key); `config["mixtures"]` says how many."""
     surface_mode = validate_method(surface_mode, inv_mod.SURFACE_MODES, "surface_mode")
     if modelled_per_class < 0:
         raise ValueError(f"modelled_per_class must be >= 0 (got {modelled_per_class}).")
@@ -273,6 +277,7 @@ def evaluate_inversion(
             modelled_classes=modelled_classes,
             modelled_seed=seed,
             row_moon=None if row_moon is None else row_moon[kept],
+            mixtures=mixtures,
         )
         te = keep & table.rows_of_lamps(s.test)
         _never_scored(inv, lamp_ids[s.test])
@@ -357,6 +362,8 @@ def evaluate_inversion(
     }
     if moon_known:  # the default's config is as before: no such key
         config["moon"] = "known per pixel"
+    if mixtures:  # likewise
+        config["mixtures"] = int(mixtures)
     if modelled_per_class:  # the default's config is as before: no such keys
         config["modelled_per_class"] = int(modelled_per_class)
         config["modelled_lamps"] = {
