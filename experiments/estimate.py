@@ -599,7 +599,9 @@ def _recommendation(summary, coverage) -> dict:
     return {
         "estimator": "inversion (bandopt.inversion), surface unknown, is the default "
         "of bandopt evaluate; it tells the inversion each scene's Moon brightness "
-        f"(rows {MOON})",
+        f"(rows {MOON}) and holds same-class blends of the library lamps in its "
+        "prior (scored in results/estimate_mix/summary.json, rows "
+        "inversion-moon-mix)",
         "class_balanced_mae": rows,
         "coverage": coverage,
         "source": "results/estimate/summary.json",

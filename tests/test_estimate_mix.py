@@ -69,6 +69,12 @@ def test_readme_table_and_paired_rows():
         "| sdgsat-1 − recommended | inversion-moon-mix | unknown | +2.0 ± 0.5" in text
     )
     assert "level-1 type right 0.40" in text
+    assert "`-loco` calibrates" not in text  # no such run in this summary
+    s = _summary()
+    s["unseen_types"]["inversion-moon-mix-loco"] = s["unseen_types"][
+        "inversion-moon-mix"
+    ]
+    assert "`-loco` calibrates the 90 % intervals" in em.readme_text(s)
 
 
 def test_missing_values_are_said_not_invented():
