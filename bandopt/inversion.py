@@ -67,6 +67,7 @@ folds' held-out lamps is flagged `unexplained` (and its type is not guessed).
 """
 
 import dataclasses
+import functools
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -458,8 +459,8 @@ def _score_chunk(y, cand, log_ps, a, q, log_pk, sigmas, moon_b=None):
     return jax.vmap(one)(y, cand, log_ps, moon_b)
 
 
-@jax.jit
-def _score_chunk_shared(y, p, qq, log_ps, log_pk, sigmas, moon_b=None):
+@functools.partial(jax.jit, static_argnames=("all_known",))
+def _score_chunk_shared(y, p, qq, log_ps, log_pk, sigmas, moon_b=None, all_known=False):
     """`_score_chunk` when every pixel has the same surface candidates.
 
     The weighted sums of `_chi2` are matrix products over the candidates'
@@ -467,7 +468,10 @@ def _score_chunk_shared(y, p, qq, log_ps, log_pk, sigmas, moon_b=None):
     `(k s a, b)`), `Σ_b w_b u_b v_b = W @ (u v)ᵀ`, so a chunk of pixels is a few
     GEMMs plus the closed-form NNLS, elementwise (2-3x faster than
     broadcasting per pixel; same numbers to 1e-10, tested against
-    `_score_chunk`). `p (k, s, a, b)`, `qq (1, s, a, b)` or None."""
+    `_score_chunk`). `p (k, s, a, b)`, `qq (1, s, a, b)` or None.
+    `all_known` (static): every pixel's Moon amplitude is given (finite), so
+    the misfit with a fitted Moon is not computed at all (about half the
+    elementwise work; the result is the same)."""
     k, s, a, b = p.shape
     pf = p.reshape(-1, b)
     p2 = pf * pf
@@ -488,13 +492,18 @@ def _score_chunk_shared(y, p, qq, log_ps, log_pk, sigmas, moon_b=None):
         spy = grid(jnp.matmul(wy, pf.T, precision=hi))
         syy = jnp.sum(wy * yn, axis=1)[:, None, None]
         a1 = jnp.maximum(spy, 0.0) / jnp.maximum(spp, tiny)
-        chi = syy - a1 * spy
+        chi = None if (qq is not None and all_known) else syy - a1 * spy
         if qq is not None:
             qf = jnp.broadcast_to(qq, (1, s, a, b)).reshape(-1, b)
             pq = (p * qq).reshape(-1, b)
             sqq = jnp.matmul(w, (qf * qf).T, precision=hi)[:, None, :]
             sqy = jnp.matmul(wy, qf.T, precision=hi)[:, None, :]
             spq = grid(jnp.matmul(w, pq.T, precision=hi))
+        if qq is not None and all_known:
+            mm = jnp.where(m[:, 0] > 0, m[:, 0], 1.0)
+            beta = (moon_b / mm)[:, None, None]
+            chi = _chi2_known(spp, spy, syy, sqq, spq, sqy, beta)
+        elif qq is not None:
             det = spp * sqq - spq**2
             ok = det > 1e-12 * jnp.maximum(spp * sqq, tiny)
             dsafe = jnp.where(ok, det, 1.0)
@@ -620,10 +629,13 @@ def _score(y, cand, log_ps, a, q, log_pk, sigmas, moon_b=None):
         qq = None if q is None else jnp.einsum("abr,sr->sab", q, cand[0])[None]
         npad = -(-n // shared_chunk) * shared_chunk
         y = np.concatenate([y, np.ones((npad - n, y.shape[1]))])
+        all_known = moon_b is not None and bool(np.all(np.isfinite(moon_b)))
         mb = (
             None
             if moon_b is None
-            else np.concatenate([moon_b, np.full(npad - n, np.nan)])
+            else np.concatenate(
+                [moon_b, np.full(npad - n, 0.0 if all_known else np.nan)]
+            )
         )
         lks, chis = [], []
         for i in range(0, npad, shared_chunk):
@@ -635,6 +647,7 @@ def _score(y, cand, log_ps, a, q, log_pk, sigmas, moon_b=None):
                 jnp.asarray(log_pk),
                 jnp.asarray(np.asarray(sigmas, float)),
                 None if mb is None else jnp.asarray(mb[i : i + shared_chunk]),
+                all_known=all_known,
             )
             lks.append(np.asarray(lk))
             chis.append(np.asarray(chi))

@@ -83,6 +83,18 @@ def test_moonless_pixels_told_no_moon_match_an_inversion_without_the_moon(
         inv0.posterior(rad, surf, moon=moon)
 
 
+def test_all_told_pixels_take_the_known_moon_path_only(moonlit):
+    """When every pixel is told its Moon (the shared-surface path skips the
+    fitted-Moon misfit), the scores are those of the same pixels scored next
+    to one pixel that is not told (both misfits computed, then chosen)."""
+    lamps, cond, w, rad, moon, _ = moonlit
+    inv = inv_mod.build_inversion(lamps, w, cond, inv_mod.surface_basis(GRID))
+    told = inv.posterior(rad, moon=moon)
+    mixed = inv.posterior(np.vstack([rad, rad[:1]]), moon=np.r_[moon, np.nan])
+    np.testing.assert_allclose(told[0], mixed[0][:-1], rtol=1e-10, atol=1e-14)
+    np.testing.assert_allclose(told[1], mixed[1][:-1], rtol=1e-10, atol=1e-12)
+
+
 def test_context_moon_follows_the_scene_order():
     from bandopt.forward import scenario_table
     from bandopt.search import _task, get_context
