@@ -267,8 +267,13 @@ def test_cross_validate_scores_measured_lamps_only_and_says_so(case, monkeypatch
 
 
 def test_the_never_scored_guard_can_fail():
-    inv = types.SimpleNamespace(diagnostics={"modelled_lamps": {"ids": ["model_x"]}})
+    inv = types.SimpleNamespace(
+        diagnostics={"modelled_lamps": {"ids": ["model_x"]}},
+        prior=types.SimpleNamespace(ids=("lamp_b", "model_x", "mix:lamp_b+lamp_c@0.5")),
+    )
     inv_mod._check_never_scored(inv, ["lamp_a"])
+    with pytest.raises(RuntimeError, match="mixtures of scored lamps"):
+        inv_mod._check_never_scored(inv, ["lamp_c"])
     with pytest.raises(RuntimeError, match="modelled lamps among the scored"):
         inv_mod._check_never_scored(inv, ["lamp_a", "model_x"])
 
