@@ -31,7 +31,14 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.estimate import _by_class, _overall, band_set, diff_cells, where_lines
+from experiments.estimate import (
+    _by_class,
+    _fmt,
+    _overall,
+    band_set,
+    diff_cells,
+    where_lines,
+)
 
 
 BAND_SETS = {
@@ -57,13 +64,6 @@ def log(msg: str) -> None:
     print(
         f"[estimate_mix {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True
     )
-
-
-def _cell(row, m, d):
-    if row.get(m) is None:
-        return "n/a"
-    sd = row.get(f"{m}_sd")
-    return f"{row[m]:.{d}f}" + ("" if sd is None else f" ± {sd:.{d}f}")
 
 
 def readme_text(summary: dict) -> str:
@@ -95,7 +95,7 @@ def readme_text(summary: dict) -> str:
         l1 = r.get("level1_correct")
         lines.append(
             f"| {r['band_set']} | {r['surface']} | {r['estimator']} | "
-            f"{_cell(r, 'LER', 1)} | {_cell(r, 'G', 3)} | {_cell(r, 'CCT', 0)} | "
+            f"{_fmt(r, 'LER', 1)} | {_fmt(r, 'G', 3)} | {_fmt(r, 'CCT', 0)} | "
             f"{cov} | {'n/a' if l1 is None else f'{l1:.2f}'} |"
         )
     lines += [
