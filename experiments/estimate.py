@@ -70,6 +70,27 @@ def log(msg: str) -> None:
     print(f"[estimate {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
 
 
+def load_records(rec_path: Path, *, keep: bool, say=None) -> tuple[list, set]:
+    """Records of a resumable run and its finished (partition, band set)
+    units. Without `keep` the file is deleted first (results are
+    recomputed, not replayed); an unreadable line (an interrupted write) is
+    dropped with a message through `say` (default `log`)."""
+    say = log if say is None else say
+    if rec_path.is_file() and not keep:
+        rec_path.unlink()
+    records, done = [], set()
+    if rec_path.is_file():
+        for i, line in enumerate(rec_path.read_text().splitlines()):
+            try:
+                r = json.loads(line)
+            except json.JSONDecodeError:
+                say(f"{rec_path}:{i + 1}: unreadable line dropped (interrupted write)")
+                continue
+            records.append(r)
+            done.add((r["partition"], r["band_set"]))
+    return records, done
+
+
 def band_set(name: str):
     from bandopt.sensor import BandSet
     from bandopt.sensor.reference import resolve
@@ -135,19 +156,7 @@ def main(argv=None) -> int:
     preset = "tiny" if args.quick else "search"
     parts = 1 if args.quick else args.partitions
     rec_path = out / "records.jsonl"
-    done = set()
-    records = []
-    if rec_path.is_file() and not (args.resume or args.summarise_only):
-        rec_path.unlink()  # results are recomputed, not replayed
-    if rec_path.is_file():
-        for i, line in enumerate(rec_path.read_text().splitlines()):
-            try:
-                r = json.loads(line)
-            except json.JSONDecodeError:
-                log(f"{rec_path}:{i + 1}: unreadable line dropped (interrupted write)")
-                continue
-            records.append(r)
-            done.add((r["partition"], r["band_set"]))
+    records, done = load_records(rec_path, keep=args.resume or args.summarise_only)
     n_model = args.modelled_per_class
     if args.summarise_only:
         n_model = modelled_per_class_of(records)

@@ -37,6 +37,7 @@ from experiments.estimate import (
     _overall,
     band_set,
     diff_cells,
+    load_records,
     where_lines,
 )
 
@@ -245,18 +246,7 @@ def main(argv=None) -> int:
     out = Path(args.out or "results/estimate_mix")
     out.mkdir(parents=True, exist_ok=True)
     rec_path = out / "records.jsonl"
-    if rec_path.is_file() and not args.resume:
-        rec_path.unlink()  # results are recomputed, not replayed
-    records, done = [], set()
-    if rec_path.is_file():
-        for i, line in enumerate(rec_path.read_text().splitlines()):
-            try:
-                r = json.loads(line)
-            except json.JSONDecodeError:
-                log(f"{rec_path}:{i + 1}: unreadable line dropped (interrupted write)")
-                continue
-            records.append(r)
-            done.add((r["partition"], r["band_set"]))
+    records, done = load_records(rec_path, keep=args.resume, say=log)
     t0 = time.time()
     units = [(p, b) for p in range(args.partitions) for b in BAND_SETS]
     for j, (p, name) in enumerate(units):

@@ -1,6 +1,8 @@
 """`experiments/estimate_mix.py`: its pure parts (the README table, the
 paired rows, the figure) on a hand-made summary."""
 
+import json
+
 import numpy as np
 
 from experiments import estimate_mix as em
@@ -93,3 +95,21 @@ def test_figure_is_written(tmp_path):
     img = imread(path)
     assert img.ndim == 3 and img.shape[0] > 100 and img.shape[1] > 500
     assert np.ptp(img[..., :3]) > 0  # not blank
+
+
+def test_resumable_records_keep_finished_units_and_drop_a_torn_line(tmp_path):
+    """`experiments.estimate.load_records` (used by estimate and estimate_mix):
+    with `keep` the finished units come back and a half-written last line is
+    dropped with a message naming the file and line; without it the file is
+    deleted (recomputed, not replayed)."""
+    from experiments.estimate import load_records
+
+    path = tmp_path / "records.jsonl"
+    good = [{"partition": 0, "band_set": "a"}, {"partition": 1, "band_set": "b"}]
+    path.write_text("".join(json.dumps(r) + "\n" for r in good) + '{"partit')
+    said = []
+    records, done = load_records(path, keep=True, say=said.append)
+    assert records == good and done == {(0, "a"), (1, "b")}
+    assert said == [f"{path}:3: unreadable line dropped (interrupted write)"]
+    assert load_records(path, keep=False, say=said.append) == ([], set())
+    assert not path.exists()

@@ -11,8 +11,8 @@ import pytest
 from bandopt import inversion as inv_mod
 from bandopt.estimate import lamp_truth
 from bandopt.photometry import ler
-from tests._bands import FIVE, GRID
-from tests.test_inversion_models import _case
+from tests._bands import GRID
+from tests.test_inversion_models import _case, _pixels
 
 
 @pytest.fixture(scope="module")
@@ -87,17 +87,7 @@ def _between_case(case):
     base = lamps.take(np.concatenate([warm, others]))
     blend = 0.5 * base.spectra[0] + 0.5 * base.spectra[1]
     lamps = base + inv_mod.LampSet(("blend",), blend[None], ("led",), ("led_warm",))
-    w = inv_mod.band_weights_on(FIVE, GRID)
-    from bandopt.datasets import surfaces
-
-    _, refl = surfaces.mean_reflectance(["asphalt", "grass"], GRID)
-    rows, row_lamp = [], []
-    for i, s in enumerate(lamps.spectra):
-        for r in refl:
-            for lux in (3.0, 20.0):
-                rows.append(w @ (lux * r * s / np.pi))
-                row_lamp.append(i)
-    return lamps, np.asarray(row_lamp), np.asarray(rows), w
+    return (lamps, *_pixels(lamps))
 
 
 def test_a_lamp_between_two_training_lamps_is_found_with_mixtures(case):

@@ -33,6 +33,18 @@ def _case():
         idx = [i for i, x in enumerate(everything.level2) if x == c]
         pick += idx if c == "mercury" else idx[:3]
     lamps = everything.take(pick)
+    row_lamp, rows, w = _pixels(lamps)
+    l2 = np.asarray(lamps.level2, dtype=object)
+    test = np.array([int(np.flatnonzero(l2 == c)[0]) for c in CLASSES])
+    train = np.setdiff1d(np.arange(len(lamps.ids)), test)
+    folds = stratified_lamp_folds(l2[train], 2, 0)
+    inner = [(np.setdiff1d(train, train[v]), np.sort(train[v])) for v in folds]
+    return lamps, row_lamp, rows, train, test, inner, w
+
+
+def _pixels(lamps):
+    """Band radiances (`FIVE`) of every lamp on asphalt and grass at 3 and
+    20 lx, with each row's lamp index and the band weights."""
     _, refl = surfaces.mean_reflectance(["asphalt", "grass"], GRID)
     w = inv_mod.band_weights_on(FIVE, GRID)
     rows, row_lamp = [], []
@@ -41,12 +53,7 @@ def _case():
             for lux in (3.0, 20.0):
                 rows.append(w @ (lux * r * s / np.pi))
                 row_lamp.append(i)
-    l2 = np.asarray(lamps.level2, dtype=object)
-    test = np.array([int(np.flatnonzero(l2 == c)[0]) for c in CLASSES])
-    train = np.setdiff1d(np.arange(len(lamps.ids)), test)
-    folds = stratified_lamp_folds(l2[train], 2, 0)
-    inner = [(np.setdiff1d(train, train[v]), np.sort(train[v])) for v in folds]
-    return lamps, np.asarray(row_lamp), np.asarray(rows), train, test, inner, w
+    return np.asarray(row_lamp), np.asarray(rows), w
 
 
 @pytest.fixture(scope="module")
