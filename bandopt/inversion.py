@@ -558,13 +558,21 @@ holds, so the intervals are calibrated for new lamps of known types) or
 classes at the chosen `σ_rel`: calibrated for lamps of a type the prior does
 not hold, so wider)."""
 
-SIGMA_RULES = ("error", "evidence")
+SIGMA_RULES = ("error", "evidence", "per-metric")
 """How `fit_inversion` chooses `σ_rel` on its inner folds: `"error"` (the
 class-balanced metric error of the held-out inner lamps, normalised per
-metric: the target itself, but noisy with few lamps per class) or
+metric and summed: the target itself, but noisy with few lamps per class),
 `"evidence"` (the class-balanced mean log marginal likelihood of their
 pixels, `log_evidence`: a proper score over every pixel and band, so a
-steadier choice, but of the band-noise model, not of the metric error)."""
+steadier choice, but of the band-noise model, not of the metric error) or
+`"per-metric"` (`σ_rel` as `"error"` for the types, misfit and flag, and
+each metric's estimate and interval from the posterior at its own `σ_rel`,
+the one with the least held-out error of that metric: `Inversion.
+metric_sigma`; one more scoring per pixel when they differ). A small
+`σ_rel` weighs the bands nearly by absolute error (the floor `SIGMA_FLOOR`
+is then a third of the error), a large one by relative error; LER is best
+estimated with the former, G and CCT with the latter (measured: issue 12,
+`make estimate-mix`), so one σ for all three is a trade-off."""
 
 
 SHARED_CHUNK = 256
@@ -1038,6 +1046,16 @@ class Inversion:
     conformal: np.ndarray
     threshold: float
     diagnostics: dict
+    metric_sigma: tuple[float, ...] = ()
+
+    @property
+    def metric_sigmas(self) -> tuple[float, float, float]:
+        """`σ_rel` of each metric's estimate and interval (`METRICS` order):
+        `metric_sigma` when set (`fit_inversion(sigma_rule="per-metric")`),
+        else `sigma_rel` for all three."""
+        if not self.metric_sigma:
+            return (self.sigma_rel,) * 3
+        return tuple(float(x) for x in self.metric_sigma)
 
     @property
     def n_bands(self) -> int:
@@ -1090,9 +1108,17 @@ class Inversion:
 
     def predict(self, radiance, surface=None, moon=None) -> InversionResult:
         """Invert band radiances (n, b) (any brightness; `moon`: known Moon
-        brightness per pixel, see `posterior`)."""
-        post, misfit = self.posterior(radiance, surface, moon=moon)
-        return _result(self, post, misfit)
+        brightness per pixel, see `posterior`). Types, misfit and flag come
+        from the posterior at `sigma_rel`, each metric from the posterior at
+        its own `metric_sigmas` (one scoring per distinct value)."""
+        sig = sorted({self.sigma_rel, *self.metric_sigmas})
+        if len(sig) == 1:
+            post, misfit = self.posterior(radiance, surface, moon=moon)
+            return _result(self, post, misfit)
+        posts, misfits = self.posterior(radiance, surface, sig, moon=moon)
+        j = sig.index(self.sigma_rel)
+        by_metric = [posts[:, sig.index(x)] for x in self.metric_sigmas]
+        return _result(self, posts[:, j], misfits[:, j], by_metric)
 
 
 def build_inversion(
@@ -1157,8 +1183,26 @@ def surface_candidates(basis: SurfaceBasis, mode: str, n: int, surface=None):
     return cand, np.full(cand.shape[:2], -np.log(cand.shape[1]))
 
 
-def _result(inv: Inversion, post, misfit) -> InversionResult:
-    mean, rng, p_cct = _posterior_metrics(post, inv.prior)
+def _metrics_per_posterior(posts, prior: LampPrior):
+    """`_posterior_metrics` with each metric (`METRICS` order) taken from its
+    own posterior `posts[m]` (n, k); P(CCT meaningful) from the CCT one.
+    Posteriors that are the same object are summarised once."""
+    done = {}
+    for p in posts:
+        if id(p) not in done:
+            done[id(p)] = _posterior_metrics(p, prior)
+    mean = np.stack([done[id(p)][0][:, m] for m, p in enumerate(posts)], axis=1)
+    rng = np.stack([done[id(p)][1][:, m] for m, p in enumerate(posts)], axis=1)
+    return mean, rng, done[id(posts[2])][2]
+
+
+def _result(inv: Inversion, post, misfit, by_metric=None) -> InversionResult:
+    """Estimates, intervals, flags and types of the posterior `post` (n, k);
+    `by_metric`: one posterior per metric for the estimates and intervals
+    (default: `post` for all three)."""
+    mean, rng, p_cct = _metrics_per_posterior(
+        [post] * 3 if by_metric is None else by_metric, inv.prior
+    )
     lo_b, hi_b = _model_bounds()
     half = np.maximum((rng[..., 1] - rng[..., 0]) / 2, INTERVAL_FLOOR)
     lo = np.clip(rng[..., 0] - inv.conformal * half, lo_b, hi_b)
@@ -1254,8 +1298,12 @@ def fit_inversion(
     ["modelled_lamps"]` records what the final prior holds.
 
     `sigma_rule` (`SIGMA_RULES`): how `σ_rel` is chosen on the inner folds,
-    by held-out metric error (default) or by held-out log evidence;
-    `diagnostics` holds both criteria per candidate.
+    by held-out metric error (default), by held-out log evidence, or by
+    held-out metric error per metric (`"per-metric"`: each metric's estimate,
+    interval and conformal factor at its own `σ_rel`, `Inversion.
+    metric_sigma`; types, misfit and the unexplained threshold at the
+    `"error"` choice); `diagnostics` holds every criterion per candidate
+    and `diagnostics["metric_sigma"]` each metric's `σ_rel`.
 
     `row_moon` (N,): the Moon's brightness per row when known (see
     `Inversion.posterior`), used on the inner folds; pass the test pixels'
@@ -1346,6 +1394,7 @@ def fit_inversion(
         ]
     )
     scores = {s: [] for s in sigma_grid}
+    scores_m = {s: [] for s in sigma_grid}  # per metric (3,)
     evid = {s: [] for s in sigma_grid}
     calib = {s: [] for s in sigma_grid}
     for tr, va in inner:
@@ -1364,25 +1413,33 @@ def fit_inversion(
             post, misfit = posts[:, j], misfits[:, j]
             mean, rng, _ = _posterior_metrics(post, inv.prior)
             err = _lamp_errors(mean, tm, valid, rl, va)
-            score = 0.0
+            per_m = np.zeros(3)
             for m in range(3):
                 ok = ~np.isnan(err[:, m])
-                score += (
+                per_m[m] = (
                     np.sum(w[ok] * err[ok, m]) / max(w[ok].sum(), 1e-300) / spread[m]
                 )
-            scores[s].append(score)
+            scores[s].append(float(per_m.sum()))
+            scores_m[s].append(per_m)
             # class-balanced mean over lamps of each lamp's mean log evidence
             per_lamp = np.array([lev[rl == lamp, j].mean() for lamp in va])
             evid[s].append(float(np.sum(w * per_lamp) / max(w.sum(), 1e-300)))
             calib[s].append((rows, mean, rng, misfit, va))
-    if sigma_rule == "error":
-        best = min(sigma_grid, key=lambda s: float(np.mean(scores[s])))
-    else:
+    if sigma_rule == "evidence":
         best = max(sigma_grid, key=lambda s: float(np.mean(evid[s])))
+    else:
+        best = min(sigma_grid, key=lambda s: float(np.mean(scores[s])))
+    per_metric = (best,) * 3
+    if sigma_rule == "per-metric":
+        per_metric = tuple(
+            min(sigma_grid, key=lambda s: float(np.mean(scores_m[s], axis=0)[m]))
+            for m in range(3)
+        )
     # conformal factors and reject threshold from the held-out inner lamps
-    held_out = calib[best]
+    held_out = _per_metric_held_out([calib[x] for x in per_metric])
     if calibration == "classes":  # each training class held out in turn
         held_out = []
+        sig = sorted({best, *per_metric})
         train_arr = np.asarray(train_lamps, int)
         for c in sorted(set(l2[train_arr])):
             va = train_arr[l2[train_arr] == c]
@@ -1391,13 +1448,13 @@ def fit_inversion(
                 continue
             rows = rows_of(va)
             inv = make(lamps.take(tr), best, modelled(tr)[0])
-            post, misfit = inv.posterior(
-                radiance[rows],
-                surf(rows),
-                moon=moon_of(rows),
+            posts, misfits = inv.posterior(
+                radiance[rows], surf(rows), sig, moon=moon_of(rows)
             )
-            mean, rng, _ = _posterior_metrics(post, inv.prior)
-            held_out.append((rows, mean, rng, misfit, va))
+            mean, rng, _ = _metrics_per_posterior(
+                [posts[:, sig.index(x)] for x in per_metric], inv.prior
+            )
+            held_out.append((rows, mean, rng, misfits[:, sig.index(best)], va))
     conf = _conformal_factors(held_out, row_lamp, l2, tm, valid)
     mis_all, w_all = [], []
     for rows, _mean, _rng, misfit, va in calib[best]:
@@ -1416,12 +1473,18 @@ def fit_inversion(
         final,
         conformal=conf,
         threshold=thr,
+        metric_sigma=per_metric if sigma_rule == "per-metric" else (),
         diagnostics={
             "sigma_rel": best,
             "sigma_rule": sigma_rule,
+            "metric_sigma": dict(zip(METRICS, per_metric, strict=True)),
             "calibration": calibration,
             "moon": "fitted" if row_moon is None else "known per pixel",
             "inner_scores": {str(s): float(np.mean(v)) for s, v in scores.items()},
+            "inner_scores_per_metric": {
+                str(s): dict(zip(METRICS, np.mean(v, axis=0).tolist(), strict=True))
+                for s, v in scores_m.items()
+            },
             "inner_log_evidence": {
                 str(s): float(np.mean(v)) for s, v in evid.items()
             },
@@ -1443,6 +1506,19 @@ def fit_inversion(
             },
         },
     )
+
+
+def _per_metric_held_out(per_metric_calib):
+    """Held-out inner-fold data `(rows, mean, range, misfit, lamps)` per fold
+    with metric m's columns from `per_metric_calib[m]` (the same folds scored
+    at that metric's `σ_rel`); rows, misfit and lamps from the first."""
+    out = []
+    for folds in zip(*per_metric_calib, strict=True):
+        rows, _, _, misfit, va = folds[0]
+        mean = np.stack([f[1][:, m] for m, f in enumerate(folds)], axis=1)
+        rng = np.stack([f[2][:, m] for m, f in enumerate(folds)], axis=1)
+        out.append((rows, mean, rng, misfit, va))
+    return out
 
 
 def _row_weights(rows, va, row_lamp, l2) -> np.ndarray:
@@ -1511,6 +1587,10 @@ MIX_ESTIMATOR = "inversion-moon-mix"
 """`cross_validate` estimator: `MOON_ESTIMATOR` with pairwise same-class
 mixtures of its prior's lamps in every prior (`fit_inversion(mixtures=
 MIX_PAIRS)`, `mixture_lamps`)."""
+
+MIX_METRIC_ESTIMATOR = "inversion-moon-mix-metric"
+"""`cross_validate` estimator: `MIX_ESTIMATOR` with each metric estimated at
+its own `σ_rel` (`fit_inversion(sigma_rule="per-metric")`)."""
 
 MODEL_NOISE_SEED_OFFSET = 15485863
 """Noise seed offset of modelled lamps' rows (a prime): with photon noise,
@@ -1830,8 +1910,10 @@ def cross_validate(
                 MOON_ESTIMATOR,
                 MOON_UNSEEN_ESTIMATOR,
                 MIX_ESTIMATOR,
+                MIX_METRIC_ESTIMATOR,
             ):
-                told = name in (MOON_ESTIMATOR, MOON_UNSEEN_ESTIMATOR, MIX_ESTIMATOR)
+                mix = name in (MIX_ESTIMATOR, MIX_METRIC_ESTIMATOR)
+                told = mix or name in (MOON_ESTIMATOR, MOON_UNSEEN_ESTIMATOR)
                 moon_rows = context_moon(ctx) if told else None
                 n_model = modelled_per_class if name == "inversion+models" else 0
                 for mode in surface_modes:
@@ -1851,14 +1933,15 @@ def cross_validate(
                         modelled_per_class=n_model,
                         modelled_classes=modelled_classes,
                         modelled_seed=seed,
-                        sigma_rule=(
-                            "evidence" if name == EVIDENCE_ESTIMATOR else "error"
-                        ),
+                        sigma_rule={
+                            EVIDENCE_ESTIMATOR: "evidence",
+                            MIX_METRIC_ESTIMATOR: "per-metric",
+                        }.get(name, "error"),
                         row_moon=moon_rows,
                         calibration=(
                             "classes" if name == MOON_UNSEEN_ESTIMATOR else "lamps"
                         ),
-                        mixtures=MIX_PAIRS if name == MIX_ESTIMATOR else 0,
+                        mixtures=MIX_PAIRS if mix else 0,
                     )
                     sub = (
                         None
@@ -1911,7 +1994,7 @@ def cross_validate(
                     f"estimator {name!r}: expected one of "
                     f"{(*ESTIMATORS, *MODELLED_ESTIMATORS)} or "
                     f"{(EVIDENCE_ESTIMATOR, MOON_ESTIMATOR, MOON_UNSEEN_ESTIMATOR)}"
-                    f" or {MIX_ESTIMATOR!r}."
+                    f" or {(MIX_ESTIMATOR, MIX_METRIC_ESTIMATOR)}."
                 )
         for (name, mode), (p, inv) in preds.items():
             res = p if isinstance(p, InversionResult) else None
@@ -1959,6 +2042,8 @@ def cross_validate(
                     rec["level2_correct"] = float(np.mean(l2p == lamps.level2[lamp]))
                     rec["unexplained"] = float(np.mean(res.unexplained[sel]))
                     rec["sigma_rel"] = inv.sigma_rel
+                    if inv.metric_sigma:
+                        rec["metric_sigma"] = list(inv.metric_sigma)
                 if modelled_per_class > 0:
                     rec.update(model_info.get(name) or _modelled_fields(inv))
                 out.append(rec)
@@ -2111,6 +2196,7 @@ ESTIMATOR_PAIRS = (
     (EVIDENCE_ESTIMATOR, "inversion"),
     (MOON_ESTIMATOR, "inversion"),
     (MIX_ESTIMATOR, MOON_ESTIMATOR),
+    (MIX_METRIC_ESTIMATOR, MIX_ESTIMATOR),
 )
 """(variant, base) estimator pairs `estimator_differences` compares: what
 modelled training lamps, the evidence rule for `σ_rel`, the told Moon and
@@ -2154,6 +2240,7 @@ def leave_one_class_out(
     moon_known: bool = False,
     calibration: str = "lamps",
     mixtures: int = 0,
+    sigma_rule: str = "error",
 ):
     """Unseen lamp types: for every scored level-2 class, fit on all other
     classes (inner folds: 2 class-stratified lamp folds of those) and score its
@@ -2172,7 +2259,7 @@ def leave_one_class_out(
     fit's training classes held out in turn, never the scored class).
     `mixtures`: pairwise same-class mixtures of the prior's lamps
     (`fit_inversion(mixtures=)`; never of the held-out class: its lamps are
-    not in any prior)."""
+    not in any prior). `sigma_rule`: as `fit_inversion`'s."""
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
     rad = ctx.radiance(bands)
@@ -2206,6 +2293,7 @@ def leave_one_class_out(
             row_moon=moon_rows,
             calibration=calibration,
             mixtures=mixtures,
+            sigma_rule=sigma_rule,
         )
         _check_never_scored(inv, [lamps.ids[i] for i in test])
         if c in inv.diagnostics["modelled_lamps"]["added"]:

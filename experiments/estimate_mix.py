@@ -10,6 +10,9 @@ priors also hold pairwise same-class mixtures of their own lamps
 lamp partitions and folds of `make estimate`, for the recommended bands and
 the reference sensors (same estimators for every band set), and on unseen
 lamp types (each scored class held out; recommended bands, partition 0).
+A third estimator (`inversion-moon-mix-metric`) is the blends' inversion with
+each metric at its own relative band error `σ_rel` (`fit_inversion(
+sigma_rule="per-metric")`): one `σ_rel` for LER, G and CCT is a trade-off.
 
     python -m experiments.estimate_mix [--partitions 4] [--out DIR] [--resume]
 
@@ -49,16 +52,23 @@ BAND_SETS = {
 }
 """Band sets and the surface modes each is scored in (the two with every
 mode in `make estimate`, and its best reference sensor there)."""
-ESTIMATORS = ("inversion-moon", "inversion-moon-mix")
-"""The told-Moon inversion without and with mixtures in its priors."""
+ESTIMATORS = ("inversion-moon", "inversion-moon-mix", "inversion-moon-mix-metric")
+"""The told-Moon inversion without and with mixtures in its priors, and with
+mixtures and each metric at its own `σ_rel` (`sigma_rule="per-metric"`)."""
+PAIRS = (
+    ("inversion-moon-mix", "inversion-moon"),
+    ("inversion-moon-mix-metric", "inversion-moon-mix"),
+)
+"""(variant, base) estimators compared paired by partition."""
 UNSEEN = (
-    ("inversion-moon", 0, "lamps"),
-    ("inversion-moon-mix", None, "lamps"),
-    ("inversion-moon-mix-loco", None, "classes"),
+    ("inversion-moon", 0, "lamps", "error"),
+    ("inversion-moon-mix", None, "lamps", "error"),
+    ("inversion-moon-mix-loco", None, "classes", "error"),
+    ("inversion-moon-mix-metric-loco", None, "classes", "per-metric"),
 )
 """Unseen-types runs: label, mixtures (None: `MIX_PAIRS`), interval
 calibration (`fit_inversion(calibration=)`; "classes" with mixtures is what
-`bandopt evaluate` does by default)."""
+`bandopt evaluate` does by default) and `σ_rel` rule."""
 
 
 def log(msg: str) -> None:
@@ -77,7 +87,11 @@ def readme_text(summary: dict) -> str:
         "`inversion-moon-mix` also holds, in every prior it builds, pairwise "
         f"mixtures of that prior's own lamps of one class (up to "
         f"{summary['mix_pairs']} pairs per class, flux fractions "
-        f"{', '.join(f'{f:g}' for f in summary['mix_fractions'])}). With the "
+        f"{', '.join(f'{f:g}' for f in summary['mix_fractions'])}); "
+        "`inversion-moon-mix-metric` is `inversion-moon-mix` with each metric "
+        "estimated (and its interval calibrated) at its own relative band "
+        "error `σ_rel`, chosen on the inner folds by that metric's error; the "
+        "types and the unexplained flag stay at the one joint `σ_rel`. With the "
         "test lamp itself in the prior the error is ~0 (partition 0, fold 0: "
         f"{summary['oracle']['LER']:.2f} lm/W, G {summary['oracle']['G']:.3f}): "
         "the prior's coverage of lamp space, not the scene, limits the estimate. "
@@ -102,18 +116,17 @@ def readme_text(summary: dict) -> str:
     lines += [
         "",
         "Paired by partition (positive = the first is worse): mixtures minus "
-        "none, same band set and surface; reference minus recommended, same "
-        "estimator and surface.",
+        "none and per-metric `σ_rel` minus one `σ_rel`, same band set and "
+        "surface; reference minus recommended, same estimator and surface.",
         "",
         "| compared | estimator | surface | LER [lm/W] | G | CCT [K] |",
         "|---|---|---|---|---|---|",
     ]
     for p in summary["paired"]:
-        what = (
-            f"{p['band_set']}: mix − no mix"
-            if p.get("vs") == "inversion-moon"
-            else f"{p['band_set']} − {p['vs']}"
-        )
+        what = {
+            "inversion-moon": f"{p['band_set']}: mix − no mix",
+            "inversion-moon-mix": f"{p['band_set']}: per-metric σ − one σ",
+        }.get(p.get("vs"), f"{p['band_set']} − {p['vs']}")
         lines.append(
             f"| {what} | {p['estimator']} | {p['surface']} | "
             + " | ".join(diff_cells(p))
@@ -162,20 +175,21 @@ def figure(summary: dict, path: Path) -> None:
     for ax, (m, unit) in zip(
         axes, (("LER", "lm/W"), ("G", "1"), ("CCT", "K")), strict=True
     ):
-        for j, (est, colour) in enumerate(zip(ESTIMATORS, ("C8", "C9"), strict=True)):
+        colours = ("C8", "C9", "C2")
+        for j, (est, colour) in enumerate(zip(ESTIMATORS, colours, strict=True)):
             v = [by.get((*k, est), {}).get(m) for k in keys]
             e = [by.get((*k, est), {}).get(f"{m}_sd") or 0.0 for k in keys]
             v = [np.nan if x is None else x for x in v]
-            ax.barh(y + (0.2 if j == 0 else -0.2), v, height=0.38, xerr=e,
+            ax.barh(y + 0.27 * (1 - j), v, height=0.26, xerr=e,
                     color=colour, capsize=2, label=est)  # fmt: skip
         ax.set_yticks(y, [f"{b} / {s}" for b, s in keys], fontsize=8)
         ax.set_xlabel(f"class-balanced MAE {m} [{unit}]")
         ax.grid(axis="x", alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8, frameon=False)
+    fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=8, frameon=False)
     fig.suptitle(
-        "Held-out measured lamps, Moon told: prior of measured lamps vs with "
-        "same-class mixtures (mean ± SD over partitions)",
+        "Held-out measured lamps, Moon told: prior of measured lamps, with "
+        "same-class mixtures, and with per-metric σ (mean ± SD over partitions)",
         fontsize=10,
     )
     fig.subplots_adjust(
@@ -274,22 +288,21 @@ def main(argv=None) -> int:
     summ = inv_mod.summarise(records)
     order = {b: i for i, b in enumerate(BAND_SETS)}
     summ.sort(key=lambda r: (order[r["band_set"]], r["surface"], r["estimator"]))
-    paired = inv_mod.estimator_differences(
-        summ, [(inv_mod.MIX_ESTIMATOR, inv_mod.MOON_ESTIMATOR)]
-    )
+    paired = inv_mod.estimator_differences(summ, PAIRS)
     for name in list(BAND_SETS)[1:]:
         paired += inv_mod.paired_differences(summ, "recommended", name)
     ctx0 = get_context("search", None, 0, "auto")
     rec_bands = band_set("recommended")
     unseen = {}
     if not args.no_unseen:
-        for label, mix, calibration in UNSEEN:
+        for label, mix, calibration, rule in UNSEEN:
             recs = inv_mod.leave_one_class_out(
                 ctx0,
                 rec_bands,
                 moon_known=True,
                 mixtures=inv_mod.MIX_PAIRS if mix is None else mix,
                 calibration=calibration,
+                sigma_rule=rule,
             )
             unseen[label] = {"by_class": _by_class(recs), "overall": _overall(recs)}
             log(f"unseen types, {label}: {time.time() - t0:.0f} s")
@@ -323,8 +336,8 @@ def main(argv=None) -> int:
             "mix_pairs_per_class": inv_mod.MIX_PAIRS,
             "mix_fractions": list(inv_mod.MIX_FRACTIONS),
             "unseen_types": [
-                {"label": a, "mixtures": b, "interval_calibration": c}
-                for a, b, c in UNSEEN
+                {"label": a, "mixtures": b, "interval_calibration": c, "sigma_rule": d}
+                for a, b, c, d in UNSEEN
             ],
             "scored_lamps": "measured lamps only",
             "training_lamps": "measured lamps and their same-class mixtures",

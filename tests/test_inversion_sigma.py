@@ -101,3 +101,77 @@ def test_fit_chooses_sigma_by_the_rule_it_is_given(case):
     assert by_err.sigma_rel == min(err, key=err.get)
     with pytest.raises(ValueError, match="sigma_rule 'best'"):
         inv_mod.fit_inversion(*args, sigma_rule="best", **kw)
+
+
+def test_each_metric_comes_from_the_posterior_at_its_own_sigma(case):
+    """`metric_sigma` set: metric m's estimate is the one-σ inversion's at
+    σ_m, while types, misfit and flag stay those at `sigma_rel`."""
+    import dataclasses
+
+    lamps, _, rad, w = case
+    one = inv_mod.build_inversion(
+        lamps, w, inv_mod.Conditions.clear(GRID), inv_mod.surface_basis(GRID),
+        "class", sigma_rel=0.03,
+    )  # fmt: skip
+    surf = ["asphalt"] * len(rad)
+    rng = np.random.default_rng(1)
+    noisy = rad * np.exp(rng.normal(0.0, 0.05, rad.shape))
+    per = dataclasses.replace(one, metric_sigma=(0.003, 0.3, 0.1))
+    assert per.metric_sigmas == (0.003, 0.3, 0.1)
+    assert one.metric_sigmas == (0.03, 0.03, 0.03)
+    got = per.predict(noisy, surf)
+    base = one.predict(noisy, surf)
+    for m, s in enumerate(per.metric_sigmas):
+        at_s = dataclasses.replace(one, sigma_rel=s).predict(noisy, surf)
+        np.testing.assert_allclose(got.estimate[:, m], at_s.estimate[:, m], rtol=1e-12)
+        np.testing.assert_allclose(
+            got.interval90[:, m], at_s.interval90[:, m], rtol=1e-12
+        )
+    # the estimates do differ from the one-σ ones (else the test shows nothing)
+    assert np.max(np.abs(got.estimate[:, 0] - base.estimate[:, 0])) > 0.1
+    np.testing.assert_allclose(got.misfit, base.misfit, rtol=1e-9)
+    assert got.level1 == base.level1 and got.level2 == base.level2
+    np.testing.assert_allclose(
+        got.level1_probabilities, base.level1_probabilities, rtol=1e-9, atol=1e-12
+    )
+
+
+def test_per_metric_rule_picks_each_metrics_best_sigma_on_inner_folds(case):
+    lamps, row_lamp, rad, w = case
+    l2 = np.asarray(lamps.level2, dtype=object)
+    train = np.arange(len(lamps.ids))
+    folds = stratified_lamp_folds(l2, 2, 0)
+    inner = [(np.setdiff1d(train, v), np.sort(v)) for v in folds]
+    rng = np.random.default_rng(2)
+    noisy = rad * np.exp(rng.normal(0.0, 0.05, rad.shape))
+    kw = dict(
+        basis=inv_mod.surface_basis(GRID),
+        surface_mode="class",
+        row_surface=["asphalt"] * len(rad),
+        sigma_grid=SIGMAS,
+    )
+    args = (noisy, row_lamp, lamps, train, inner, w, inv_mod.Conditions.clear(GRID))
+    by_err = inv_mod.fit_inversion(*args, **kw)
+    per = inv_mod.fit_inversion(*args, sigma_rule="per-metric", **kw)
+    d = per.diagnostics
+    pm = d["inner_scores_per_metric"]
+    for s in SIGMAS:  # the joint score is the sum of the metrics' scores
+        assert sum(pm[str(s)].values()) == pytest.approx(d["inner_scores"][str(s)])
+    want = tuple(
+        min(SIGMAS, key=lambda s: pm[str(s)][m]) for m in inv_mod.METRICS
+    )
+    assert per.metric_sigma == want
+    assert d["metric_sigma"] == dict(zip(inv_mod.METRICS, want, strict=True))
+    # types, flag threshold and σ_rel are the one-σ rule's
+    assert per.sigma_rel == by_err.sigma_rel
+    assert per.threshold == by_err.threshold
+    assert by_err.metric_sigma == ()
+    for m, s in enumerate(want):  # a metric at the joint σ keeps its factor
+        if s == by_err.sigma_rel:
+            assert per.conformal[m] == pytest.approx(by_err.conformal[m])
+    for rule in ("error", "per-metric"):  # with one candidate both agree
+        a = inv_mod.fit_inversion(*args, **{**kw, "sigma_grid": (0.03,)})
+        b = inv_mod.fit_inversion(
+            *args, **{**kw, "sigma_grid": (0.03,)}, sigma_rule=rule
+        )
+        np.testing.assert_allclose(a.conformal, b.conformal, rtol=1e-12)
