@@ -320,11 +320,13 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
         n = kw["modelled_per_class"]
         added = {"mercury": n} if n else {}
         n_mix = 6 if kw["mixtures"] else 0
+        per = kw["sigma_rule"] == "per-metric"
         return types.SimpleNamespace(
             prior=types.SimpleNamespace(
                 ids=("a", "b", "c") + ("m",) * n + ("mix:a+b@0.5",) * n_mix
             ),
             sigma_rel=0.03,
+            metric_sigmas=(0.003, 0.1, 0.03) if per else (0.03,) * 3,
             diagnostics={
                 "modelled_lamps": {"n_per_class": n, "added": added},
                 "mixtures": {"n": n_mix},
@@ -342,14 +344,23 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
     monkeypatch.setattr(inv_mod, "context_moon", lambda c: moon)
     ctx = _fake_context(case)
     ctx.table.n_lamps = len(lamps.ids)
-    for n, intervals, mix in ((0, "known-types", 0), (4, "any-type", 50)):
+    for n, intervals, mix, sigma in (
+        (0, "known-types", 0, "joint"),
+        (4, "any-type", 50, "per-metric"),
+    ):
         args = types.SimpleNamespace(
             estimator="inversion",
             modelled_per_class=n,
             intervals=intervals,
             mixtures=mix,
+            sigma=sigma,
         )
         _, _, desc = _cmd_evaluate._fit(args, ctx, FIVE, "unknown")
+        assert seen["sigma_rule"] == {"joint": "error"}.get(sigma, sigma)
+        if sigma == "joint":
+            assert "sigma_rel 0.03, 90 %" in desc
+        else:
+            assert "sigma_rel LER 0.003, G 0.1, CCT 0.03 (each metric's own" in desc
         assert seen["modelled_per_class"] == n
         assert seen["mixtures"] == mix
         assert ("with 6 pairwise blends of two measured lamps" in desc) == bool(mix)
@@ -410,7 +421,12 @@ def test_evaluate_json_says_how_many_modelled_lamps(
     assert json.loads(capsys.readouterr().out)["mixtures_per_class"] == 0
     assert mixtures == [0]
     assert main(argv) == 0  # the default: calibrated for unseen types too
-    assert json.loads(capsys.readouterr().out)["scene"]["intervals"] == "any-type"
+    out = json.loads(capsys.readouterr().out)
+    assert out["scene"]["intervals"] == "any-type"
+    sig = {"LER": 0.03, "G": 0.03, "CCT": 0.03, "types_and_flag": 0.03}
+    assert out["sigma_rel"] == sig
+    assert main([*argv, "--estimator", "ridge", "--sigma", "joint"]) == 2
+    assert "--sigma joint: for --estimator inversion only" in capsys.readouterr().err
     assert main([*argv, "--intervals", "known-types"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["scene"]["intervals"] == "known-types"

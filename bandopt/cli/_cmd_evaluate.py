@@ -83,6 +83,17 @@ def register(subparsers):
         "(results/estimate_mix)",
     )
     p.add_argument(
+        "--sigma",
+        choices=tuple(SIGMA_RULES),
+        default="per-metric",
+        help="inversion only: the relative band error the posterior assumes. "
+        "per-metric (default): each of LER, G and CCT at its own value, chosen "
+        "on lamp-grouped folds by that metric's error (LER is best with a small "
+        "one, G and CCT with a larger one); joint: one value for all three "
+        "(as before). Lamp types and the unexplained flag use the joint value "
+        "either way (results/estimate_mix)",
+    )
+    p.add_argument(
         "--intervals",
         choices=tuple(INTERVALS),
         default="any-type",
@@ -113,6 +124,9 @@ def register(subparsers):
 MIXTURES_DEFAULT = 50
 """Default of `--mixtures`: `bandopt.inversion.MIX_PAIRS` (not imported here:
 the parser is built without JAX)."""
+
+SIGMA_RULES = {"per-metric": "per-metric", "joint": "error"}
+"""`--sigma` choice -> `bandopt.inversion.fit_inversion(sigma_rule=)`."""
 
 INTERVALS = {"known-types": "lamps", "any-type": "classes"}
 """`--intervals` choice -> `bandopt.inversion.fit_inversion(calibration=)`."""
@@ -271,6 +285,7 @@ def _fit(args, ctx, bands, mode):
             row_moon=inv_mod.context_moon(ctx),
             calibration=INTERVALS[args.intervals],
             mixtures=args.mixtures,
+            sigma_rule=SIGMA_RULES[args.sigma],
         )
         added = inv.diagnostics["modelled_lamps"]["added"]
         n_model = sum(added.values())
@@ -290,7 +305,7 @@ def _fit(args, ctx, bands, mode):
         desc = (
             f"physics-based inversion (bandopt.inversion), prior over {prior}, "
             f"surface {mode}; Moon brightness told (training scenes: their own; "
-            f"your scene: moonless), not fitted; sigma_rel {inv.sigma_rel:g}, 90 % "
+            f"your scene: moonless), not fitted; sigma_rel {_sigma_text(inv)}, 90 % "
             + (
                 "intervals split-conformal on lamp-grouped folds (calibrated for "
                 "new lamps of the library's types)"
@@ -310,6 +325,25 @@ def _fit(args, ctx, bands, mode):
         "lamps' |error| (split-conformal)"
     )
     return (est, q), None, desc
+
+
+def _sigma_text(inv) -> str:
+    """The inversion's relative band error(s) for the estimator description."""
+    ler, g, cct = inv.metric_sigmas
+    if ler == g == cct == inv.sigma_rel:
+        return f"{inv.sigma_rel:g}"
+    return (
+        f"LER {ler:g}, G {g:g}, CCT {cct:g} (each metric's own, chosen on "
+        f"lamp-grouped folds; types and flag {inv.sigma_rel:g})"
+    )
+
+
+def _sigma_json(model, estimator: str):
+    """`"sigma_rel"` of the JSON: per metric and for the types, or None."""
+    if estimator != "inversion":
+        return None
+    ler, g, cct = model.metric_sigmas
+    return {"LER": ler, "G": g, "CCT": cct, "types_and_flag": model.sigma_rel}
 
 
 def _conformal_halfwidth(fit, rad, ctx):
@@ -402,6 +436,11 @@ def run(args) -> int:
             "--mixtures: blends go into the prior of --estimator inversion only "
             f"(got --estimator {args.estimator})."
         )
+    if args.sigma != "per-metric" and args.estimator != "inversion":
+        raise ValueError(
+            f"--sigma {args.sigma}: for --estimator inversion only (got "
+            f"--estimator {args.estimator})."
+        )
     if args.intervals != "any-type" and args.estimator != "inversion":
         raise ValueError(
             f"--intervals {args.intervals}: for --estimator inversion only (got "
@@ -489,6 +528,7 @@ def run(args) -> int:
         "warnings": warnings,
         "modelled_lamps_used": args.modelled_per_class,
         "mixtures_per_class": args.mixtures if args.estimator == "inversion" else 0,
+        "sigma_rel": _sigma_json(model, args.estimator),
     }
     if args.plot:
         _plot(rows, name, args.estimator, args.plot)
