@@ -124,7 +124,13 @@ SIGMA_REL_GRID = (0.003, 0.01, 0.03, 0.1, 0.3)
 """Relative band-error candidates `σ_rel`, chosen on inner folds."""
 
 SIGMA_FLOOR = 1e-3
-"""Absolute band-error floor relative to the pixel's mean band radiance."""
+"""Absolute band-error floor relative to the pixel's mean band radiance (the
+default; `fit_inversion(floor_grid=)` chooses it on inner folds)."""
+
+FLOOR_GRID = (1e-3, 3e-3, 1e-2, 3e-2)
+"""Band-error floor candidates for `fit_inversion(floor_grid=)`: with
+`σ_rel` they set how the bands are weighted, from nearly by relative error
+(small floor) to nearly uniformly (a floor above `σ_rel`)."""
 
 S2_SIGMA = (0.05, 0.005)
 """Sentinel-2 L2A surface reflectance accuracy `σ = a ρ + b` (`Doxani2018`)."""
@@ -428,9 +434,11 @@ def _chi2_known(spp, spy, syy, sqq, spq, sqy, beta):
 
 
 @jax.jit
-def _score_chunk(y, cand, log_ps, a, q, log_pk, sigmas, moon_b=None):
-    """Per pixel and relative error `σ_rel` in `sigmas (S,)`: log evidence per
-    lamp (S, k) and best χ² (S,). `y (n, b)`, `cand (n, s, r+1)`, `log_ps (n, s)`."""
+def _score_chunk(y, cand, log_ps, a, q, log_pk, noise, moon_b=None):
+    """Per pixel and band-error model in `noise (S, 2)` (`σ_rel`, floor: the
+    band error is `σ_rel |y_b| + floor` in units of the pixel's mean |y|):
+    log evidence per lamp (S, k) and best χ² (S,). `y (n, b)`, `cand (n, s,
+    r+1)`, `log_ps (n, s)`."""
 
     def one(yp, c, lps, b):
         m = jnp.mean(jnp.abs(yp))
@@ -443,8 +451,8 @@ def _score_chunk(y, cand, log_ps, a, q, log_pk, sigmas, moon_b=None):
             is_known = jnp.isfinite(b)
             beta = jnp.where(is_known, b, 0.0) / mm
 
-        def at(sigma):
-            sd = sigma * jnp.abs(yn) + SIGMA_FLOOR
+        def at(nf):
+            sd = nf[0] * jnp.abs(yn) + nf[1]
             chi = _chi2(yn, 1.0 / sd**2, p, qq)  # (k, s, a)
             if known:
                 chi = jnp.where(is_known, _chi2(yn, 1.0 / sd**2, p, qq, beta), chi)
@@ -452,7 +460,7 @@ def _score_chunk(y, cand, log_ps, a, q, log_pk, sigmas, moon_b=None):
             lk = logsumexp(lw.reshape(lw.shape[0], -1), axis=1) + log_pk
             return lk, jnp.min(chi)
 
-        return jax.lax.map(at, sigmas)
+        return jax.lax.map(at, noise)
 
     if moon_b is None:
         return jax.vmap(lambda yp, c, lps: one(yp, c, lps, None))(y, cand, log_ps)
@@ -460,7 +468,7 @@ def _score_chunk(y, cand, log_ps, a, q, log_pk, sigmas, moon_b=None):
 
 
 @functools.partial(jax.jit, static_argnames=("all_known",))
-def _score_chunk_shared(y, p, qq, log_ps, log_pk, sigmas, moon_b=None, all_known=False):
+def _score_chunk_shared(y, p, qq, log_ps, log_pk, noise, moon_b=None, all_known=False):
     """`_score_chunk` when every pixel has the same surface candidates.
 
     The weighted sums of `_chi2` are matrix products over the candidates'
@@ -484,8 +492,8 @@ def _score_chunk_shared(y, p, qq, log_ps, log_pk, sigmas, moon_b=None, all_known
     def grid(x):  # (n, k s a) -> (n, k, s a)
         return x.reshape(x.shape[0], k, s * a)
 
-    def at(sigma):
-        sd = sigma * jnp.abs(yn) + SIGMA_FLOOR
+    def at(nf):
+        sd = nf[0] * jnp.abs(yn) + nf[1]
         w = 1.0 / sd**2
         wy = w * yn
         spp = grid(jnp.matmul(w, p2.T, precision=hi))
@@ -526,16 +534,17 @@ def _score_chunk_shared(y, p, qq, log_ps, log_pk, sigmas, moon_b=None, all_known
         lk = logsumexp(-0.5 * chi + lps, axis=2) + log_pk[None, :]
         return lk, jnp.min(chi, axis=(1, 2))
 
-    lk, chi = jax.lax.map(at, sigmas)  # (S, n, k), (S, n)
+    lk, chi = jax.lax.map(at, noise)  # (S, n, k), (S, n)
     return jnp.moveaxis(lk, 0, 1), jnp.moveaxis(chi, 0, 1)
 
 
-def log_evidence(log_norm, y, sigmas) -> np.ndarray:
+def log_evidence(log_norm, y, sigmas, floors=None) -> np.ndarray:
     """Log marginal likelihood of each pixel's band radiances `y (n, b)`,
-    normalised by their mean |y|, under the prior, per `σ_rel` in `sigmas`:
+    normalised by their mean |y|, under the prior, per `σ_rel` in `sigmas`
+    (with band-error floors `floors`, default `SIGMA_FLOOR` for each):
     `log Σ_k π_k Σ_s π_s exp(-χ²/2)` (`log_norm (n, S)`, what the scores
     sum) plus the Gaussian normalisers `-Σ_b log sd_b - b/2 log 2π` that
-    depend on σ (`sd_b = σ |y_b| + SIGMA_FLOOR`). The lamp amplitude and Moon
+    depend on σ (`sd_b = σ |y_b| + floor`). The lamp amplitude and Moon
     term are profiled (fitted), so this is a profile evidence; it compares
     `σ_rel` values on the same pixels, not models with other amplitudes.
     (n, S)."""
@@ -543,7 +552,10 @@ def log_evidence(log_norm, y, sigmas) -> np.ndarray:
     m = np.mean(np.abs(y), axis=1, keepdims=True)
     yn = np.abs(y / np.where(m > 0, m, 1.0))
     sig = np.asarray(sigmas, float)
-    sd = sig[None, :, None] * yn[:, None, :] + SIGMA_FLOOR  # (n, S, b)
+    fl = np.broadcast_to(
+        np.asarray(SIGMA_FLOOR if floors is None else floors, float), sig.shape
+    )
+    sd = sig[None, :, None] * yn[:, None, :] + fl[None, :, None]  # (n, S, b)
     b = y.shape[1]
     return np.asarray(log_norm) - np.log(sd).sum(axis=-1) - 0.5 * b * math.log(
         2 * math.pi
@@ -600,10 +612,16 @@ def _chunk(base: int, k: int) -> int:
     return c
 
 
-def _score(y, cand, log_ps, a, q, log_pk, sigmas, moon_b=None):
-    """Chunked, padded `_score_chunk`: (log evidence (n, S, k), χ² (n, S)).
+def _score(y, cand, log_ps, a, q, log_pk, noise, moon_b=None):
+    """Chunked, padded `_score_chunk`: (log evidence (n, S, k), χ² (n, S));
+    `noise (S, 2)`: (`σ_rel`, floor) per band-error model.
     `moon_b` (n,): known Moon amplitudes (relative to `q`'s Moon state; NaN:
     fitted), or None (all fitted)."""
+    noise = np.asarray(noise, float)
+    if noise.ndim != 2 or noise.shape[1] != 2:
+        raise ValueError(
+            f"noise: expected (S, 2) (σ_rel, floor) pairs, got {noise.shape}."
+        )
     y = np.asarray(y, float)
     if moon_b is not None:
         moon_b = np.asarray(moon_b, float).reshape(-1)
@@ -653,7 +671,7 @@ def _score(y, cand, log_ps, a, q, log_pk, sigmas, moon_b=None):
                 None if qq is None else jnp.asarray(qq),
                 jnp.asarray(log_ps[0]),
                 jnp.asarray(log_pk),
-                jnp.asarray(np.asarray(sigmas, float)),
+                jnp.asarray(noise),
                 None if mb is None else jnp.asarray(mb[i : i + shared_chunk]),
                 all_known=all_known,
             )
@@ -667,7 +685,7 @@ def _score(y, cand, log_ps, a, q, log_pk, sigmas, moon_b=None):
         jnp.asarray(a),
         None if q is None else jnp.asarray(q),
         jnp.asarray(log_pk),
-        jnp.asarray(np.asarray(sigmas, float)),
+        jnp.asarray(noise),
     )
     lks, chis = [], []
     for i in range(0, npad, chunk):
@@ -695,19 +713,20 @@ def _weighted_quantile(values, weights, qs):
     )
 
 
-def _posterior_metrics(post, prior: LampPrior):
+def _posterior_metrics(post, prior: LampPrior, metrics=(0, 1, 2)):
     """Posterior mean and 5-95 % range in model space (CCT as mired), and
-    P(CCT meaningful). post (n, k) sums to 1 per row."""
+    P(CCT meaningful). post (n, k) sums to 1 per row. Only the columns of
+    `metrics` (indices into `METRICS`) are computed; the others are NaN."""
     t = prior.truth.copy()
     t[:, 2] = np.where(
         prior.valid[:, 2], MIRED / np.where(prior.valid[:, 2], t[:, 2], 1), 0
     )
     n = post.shape[0]
-    mean = np.empty((n, 3))
-    rng = np.empty((n, 3, 2))
+    mean = np.full((n, 3), np.nan)
+    rng = np.full((n, 3, 2), np.nan)
     p_cct = post @ prior.valid[:, 2].astype(float)
     lo_q, hi_q = (1 - COVERAGE) / 2, 1 - (1 - COVERAGE) / 2
-    for m in range(3):
+    for m in metrics:
         ok = prior.valid[:, m]
         w = post * ok[None]
         s = np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
@@ -1047,6 +1066,8 @@ class Inversion:
     threshold: float
     diagnostics: dict
     metric_sigma: tuple[float, ...] = ()
+    sigma_floor: float = SIGMA_FLOOR
+    metric_floor: tuple[float, ...] = ()
 
     @property
     def metric_sigmas(self) -> tuple[float, float, float]:
@@ -1056,6 +1077,14 @@ class Inversion:
         if not self.metric_sigma:
             return (self.sigma_rel,) * 3
         return tuple(float(x) for x in self.metric_sigma)
+
+    @property
+    def metric_noise(self) -> tuple[tuple[float, float], ...]:
+        """(`σ_rel`, floor) of each metric's estimate and interval."""
+        floors = self.metric_floor or (self.sigma_floor,) * 3
+        return tuple(
+            (s, float(f)) for s, f in zip(self.metric_sigmas, floors, strict=True)
+        )
 
     @property
     def n_bands(self) -> int:
@@ -1072,10 +1101,18 @@ class Inversion:
         return surface_candidates(self.basis, self.surface_mode, n, surface)
 
     def posterior(
-        self, radiance, surface=None, sigmas=None, *, evidence=False, moon=None
+        self,
+        radiance,
+        surface=None,
+        sigmas=None,
+        *,
+        evidence=False,
+        moon=None,
+        floors=None,
     ):
         """Posterior over prior lamps (n, k) and reduced χ² (n,); with `sigmas`
-        (S,) one of each per `σ_rel`: (n, S, k), (n, S). With `evidence`, also
+        (S,) one of each per `σ_rel`: (n, S, k), (n, S) (`floors`: the band-
+        error floor of each, default `sigma_floor`). With `evidence`, also
         the log marginal likelihood of each pixel's mean-normalised band
         radiances under the prior, (n,) or (n, S) (`log_evidence`).
 
@@ -1087,7 +1124,12 @@ class Inversion:
         cand, lps = self.candidates(y.shape[0], surface)
         a, q = self.design
         sig = [self.sigma_rel] if sigmas is None else list(sigmas)
-        lk, chi = _score(y, cand, lps, a, q, self.prior.log_prior, sig, moon)
+        fl = np.broadcast_to(
+            np.asarray(self.sigma_floor if floors is None else floors, float),
+            (len(sig),),
+        )
+        noise = np.column_stack([np.asarray(sig, float), fl])
+        lk, chi = _score(y, cand, lps, a, q, self.prior.log_prior, noise, moon)
         norm = logsumexp(lk, axis=-1, keepdims=True)
         post = np.exp(lk - norm)
         dof = np.full(y.shape[0], max(self._dof(), 1), float)
@@ -1097,7 +1139,7 @@ class Inversion:
         red = chi / (dof[:, None] if chi.ndim == 2 else dof)
         out = (post, red)
         if evidence:
-            out += (log_evidence(norm[..., 0], y, sig),)
+            out += (log_evidence(norm[..., 0], y, sig, fl),)
         return tuple(x[:, 0] for x in out) if sigmas is None else out
 
     def reconstruct(self, radiance, surface=None, moon=None) -> np.ndarray:
@@ -1110,14 +1152,18 @@ class Inversion:
         """Invert band radiances (n, b) (any brightness; `moon`: known Moon
         brightness per pixel, see `posterior`). Types, misfit and flag come
         from the posterior at `sigma_rel`, each metric from the posterior at
-        its own `metric_sigmas` (one scoring per distinct value)."""
-        sig = sorted({self.sigma_rel, *self.metric_sigmas})
-        if len(sig) == 1:
+        its own `metric_noise` (one scoring per distinct value)."""
+        joint = (self.sigma_rel, self.sigma_floor)
+        noise = sorted({joint, *self.metric_noise})
+        if len(noise) == 1:
             post, misfit = self.posterior(radiance, surface, moon=moon)
             return _result(self, post, misfit)
-        posts, misfits = self.posterior(radiance, surface, sig, moon=moon)
-        j = sig.index(self.sigma_rel)
-        by_metric = [posts[:, sig.index(x)] for x in self.metric_sigmas]
+        posts, misfits = self.posterior(
+            radiance, surface, [n[0] for n in noise], moon=moon,
+            floors=[n[1] for n in noise],
+        )  # fmt: skip
+        j = noise.index(joint)
+        by_metric = [posts[:, noise.index(x)] for x in self.metric_noise]
         return _result(self, posts[:, j], misfits[:, j], by_metric)
 
 
@@ -1128,9 +1174,13 @@ def build_inversion(
     basis: SurfaceBasis,
     surface_mode: str = "unknown",
     sigma_rel: float = 0.03,
+    sigma_floor: float = SIGMA_FLOOR,
 ) -> Inversion:
     """An uncalibrated inversion with `lamps` as its prior (no conformal
-    widening, no reject threshold): the building block of `fit_inversion`."""
+    widening, no reject threshold): the building block of `fit_inversion`.
+    Band error `σ_rel |y_b| + sigma_floor` (pixel mean |y| units)."""
+    if not sigma_floor > 0:
+        raise ValueError(f"sigma_floor must be > 0 (got {sigma_floor}).")
     if surface_mode not in SURFACE_MODES:
         raise ValueError(
             f"surface mode {surface_mode!r}: expected one of {SURFACE_MODES}."
@@ -1154,6 +1204,7 @@ def build_inversion(
         np.zeros(3),
         np.inf,
         {},
+        sigma_floor=float(sigma_floor),
     )
 
 
@@ -1190,7 +1241,8 @@ def _metrics_per_posterior(posts, prior: LampPrior):
     done = {}
     for p in posts:
         if id(p) not in done:
-            done[id(p)] = _posterior_metrics(p, prior)
+            which = tuple(m for m, q in enumerate(posts) if q is p)
+            done[id(p)] = _posterior_metrics(p, prior, which)
     mean = np.stack([done[id(p)][0][:, m] for m, p in enumerate(posts)], axis=1)
     rng = np.stack([done[id(p)][1][:, m] for m, p in enumerate(posts)], axis=1)
     return mean, rng, done[id(posts[2])][2]
@@ -1274,6 +1326,7 @@ def fit_inversion(
     modelled_classes: Sequence[str] = MODELLED_CLASSES,
     modelled_seed: int = 0,
     sigma_rule: str = "error",
+    floor_grid: Sequence[float] = (SIGMA_FLOOR,),
     row_moon=None,
     calibration: str = "lamps",
     mixtures: int = 0,
@@ -1304,6 +1357,12 @@ def fit_inversion(
     metric_sigma`; types, misfit and the unexplained threshold at the
     `"error"` choice); `diagnostics` holds every criterion per candidate
     and `diagnostics["metric_sigma"]` each metric's `σ_rel`.
+
+    `floor_grid` (default: `SIGMA_FLOOR` alone, as before): band-error floor
+    candidates, chosen with `σ_rel` (every pair of the two grids; the inner
+    scoring grows with their product) by the same rule; `sigma_floor` and
+    `diagnostics["sigma_floor"]` / `["metric_floor"]` say which. With more
+    than one floor the diagnostics' keys are `"σ/floor"`.
 
     `row_moon` (N,): the Moon's brightness per row when known (see
     `Inversion.posterior`), used on the inner folds; pass the test pixels'
@@ -1362,12 +1421,14 @@ def fit_inversion(
     if mixtures < 0:
         raise ValueError(f"mixtures must be >= 0 (got {mixtures}).")
 
-    def make(prior_set: LampSet, sigma: float, extra=None) -> Inversion:
+    def make(prior_set: LampSet, noise, extra=None) -> Inversion:
         pset = prior_set if always is None else prior_set + always
         if mixtures:
             pset = pset + mixture_lamps(pset, mixtures, seed=modelled_seed)
         pset = pset if extra is None else pset + extra
-        return build_inversion(pset, weights, conditions, basis, surface_mode, sigma)
+        return build_inversion(
+            pset, weights, conditions, basis, surface_mode, noise[0], noise[1]
+        )
 
     def rows_of(lamp_idx):
         return np.flatnonzero(np.isin(row_lamp, lamp_idx))
@@ -1393,23 +1454,27 @@ def fit_inversion(
             for m in range(3)
         ]
     )
-    scores = {s: [] for s in sigma_grid}
-    scores_m = {s: [] for s in sigma_grid}  # per metric (3,)
-    evid = {s: [] for s in sigma_grid}
-    calib = {s: [] for s in sigma_grid}
+    if not floor_grid or min(floor_grid) <= 0:
+        raise ValueError(f"floor_grid {tuple(floor_grid)}: needs values > 0.")
+    grid_n = [(float(s), float(f)) for f in floor_grid for s in sigma_grid]
+    scores = {s: [] for s in grid_n}
+    scores_m = {s: [] for s in grid_n}  # per metric (3,)
+    evid = {s: [] for s in grid_n}
+    calib = {s: [] for s in grid_n}
     for tr, va in inner:
         rows = rows_of(va)
-        inv = make(lamps.take(tr), sigma_grid[0], modelled(tr)[0])
+        inv = make(lamps.take(tr), grid_n[0], modelled(tr)[0])
         posts, misfits, lev = inv.posterior(
             radiance[rows],
             surf(rows),
-            sigmas=sigma_grid,
+            sigmas=[x[0] for x in grid_n],
             evidence=True,
             moon=moon_of(rows),
+            floors=[x[1] for x in grid_n],
         )
         w = class_balanced_weights(l2[va])
         rl = row_lamp[rows]
-        for j, s in enumerate(sigma_grid):
+        for j, s in enumerate(grid_n):
             post, misfit = posts[:, j], misfits[:, j]
             mean, rng, _ = _posterior_metrics(post, inv.prior)
             err = _lamp_errors(mean, tm, valid, rl, va)
@@ -1426,13 +1491,13 @@ def fit_inversion(
             evid[s].append(float(np.sum(w * per_lamp) / max(w.sum(), 1e-300)))
             calib[s].append((rows, mean, rng, misfit, va))
     if sigma_rule == "evidence":
-        best = max(sigma_grid, key=lambda s: float(np.mean(evid[s])))
+        best = max(grid_n, key=lambda s: float(np.mean(evid[s])))
     else:
-        best = min(sigma_grid, key=lambda s: float(np.mean(scores[s])))
+        best = min(grid_n, key=lambda s: float(np.mean(scores[s])))
     per_metric = (best,) * 3
     if sigma_rule == "per-metric":
         per_metric = tuple(
-            min(sigma_grid, key=lambda s: float(np.mean(scores_m[s], axis=0)[m]))
+            min(grid_n, key=lambda s: float(np.mean(scores_m[s], axis=0)[m]))
             for m in range(3)
         )
     # conformal factors and reject threshold from the held-out inner lamps
@@ -1449,7 +1514,11 @@ def fit_inversion(
             rows = rows_of(va)
             inv = make(lamps.take(tr), best, modelled(tr)[0])
             posts, misfits = inv.posterior(
-                radiance[rows], surf(rows), sig, moon=moon_of(rows)
+                radiance[rows],
+                surf(rows),
+                [x[0] for x in sig],
+                moon=moon_of(rows),
+                floors=[x[1] for x in sig],
             )
             mean, rng, _ = _metrics_per_posterior(
                 [posts[:, sig.index(x)] for x in per_metric], inv.prior
@@ -1469,24 +1538,33 @@ def fit_inversion(
     )
     extra, extra_info = modelled(train_lamps)
     final = make(lamps.take(train_lamps), best, extra)
+
+    def key(x) -> str:  # a σ alone when the floor is not chosen
+        return str(x[0]) if len(floor_grid) == 1 else f"{x[0]:g}/{x[1]:g}"
+
+    per = sigma_rule == "per-metric"
     return dataclasses.replace(
         final,
         conformal=conf,
         threshold=thr,
-        metric_sigma=per_metric if sigma_rule == "per-metric" else (),
+        metric_sigma=tuple(x[0] for x in per_metric) if per else (),
+        metric_floor=tuple(x[1] for x in per_metric) if per else (),
         diagnostics={
-            "sigma_rel": best,
+            "sigma_rel": best[0],
+            "sigma_floor": best[1],
+            "floor_grid": [float(f) for f in floor_grid],
             "sigma_rule": sigma_rule,
-            "metric_sigma": dict(zip(METRICS, per_metric, strict=True)),
+            "metric_sigma": dict(zip(METRICS, [x[0] for x in per_metric], strict=True)),
+            "metric_floor": dict(zip(METRICS, [x[1] for x in per_metric], strict=True)),
             "calibration": calibration,
             "moon": "fitted" if row_moon is None else "known per pixel",
-            "inner_scores": {str(s): float(np.mean(v)) for s, v in scores.items()},
+            "inner_scores": {key(s): float(np.mean(v)) for s, v in scores.items()},
             "inner_scores_per_metric": {
-                str(s): dict(zip(METRICS, np.mean(v, axis=0).tolist(), strict=True))
+                key(s): dict(zip(METRICS, np.mean(v, axis=0).tolist(), strict=True))
                 for s, v in scores_m.items()
             },
             "inner_log_evidence": {
-                str(s): float(np.mean(v)) for s, v in evid.items()
+                key(s): float(np.mean(v)) for s, v in evid.items()
             },
             "conformal_factor": dict(zip(METRICS, conf.tolist(), strict=True)),
             "unexplained_threshold_reduced_chi2": thr,
@@ -1589,8 +1667,9 @@ mixtures of its prior's lamps in every prior (`fit_inversion(mixtures=
 MIX_PAIRS)`, `mixture_lamps`)."""
 
 MIX_METRIC_ESTIMATOR = "inversion-moon-mix-metric"
-"""`cross_validate` estimator: `MIX_ESTIMATOR` with each metric estimated at
-its own `σ_rel` (`fit_inversion(sigma_rule="per-metric")`)."""
+"""`cross_validate` estimator: `MIX_ESTIMATOR` with each metric estimated
+with its own band-error model, `σ_rel` and floor (`fit_inversion(
+sigma_rule="per-metric", floor_grid=FLOOR_GRID)`)."""
 
 MODEL_NOISE_SEED_OFFSET = 15485863
 """Noise seed offset of modelled lamps' rows (a prime): with photon noise,
@@ -1942,6 +2021,11 @@ def cross_validate(
                             "classes" if name == MOON_UNSEEN_ESTIMATOR else "lamps"
                         ),
                         mixtures=MIX_PAIRS if mix else 0,
+                        floor_grid=(
+                            FLOOR_GRID
+                            if name == MIX_METRIC_ESTIMATOR
+                            else (SIGMA_FLOOR,)
+                        ),
                     )
                     sub = (
                         None
@@ -2043,7 +2127,7 @@ def cross_validate(
                     rec["unexplained"] = float(np.mean(res.unexplained[sel]))
                     rec["sigma_rel"] = inv.sigma_rel
                     if inv.metric_sigma:
-                        rec["metric_sigma"] = list(inv.metric_sigma)
+                        rec["metric_noise"] = [list(x) for x in inv.metric_noise]
                 if modelled_per_class > 0:
                     rec.update(model_info.get(name) or _modelled_fields(inv))
                 out.append(rec)
@@ -2241,6 +2325,7 @@ def leave_one_class_out(
     calibration: str = "lamps",
     mixtures: int = 0,
     sigma_rule: str = "error",
+    floor_grid: Sequence[float] = (SIGMA_FLOOR,),
 ):
     """Unseen lamp types: for every scored level-2 class, fit on all other
     classes (inner folds: 2 class-stratified lamp folds of those) and score its
@@ -2259,7 +2344,7 @@ def leave_one_class_out(
     fit's training classes held out in turn, never the scored class).
     `mixtures`: pairwise same-class mixtures of the prior's lamps
     (`fit_inversion(mixtures=)`; never of the held-out class: its lamps are
-    not in any prior). `sigma_rule`: as `fit_inversion`'s."""
+    not in any prior). `sigma_rule`, `floor_grid`: as `fit_inversion`'s."""
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
     rad = ctx.radiance(bands)
@@ -2294,6 +2379,7 @@ def leave_one_class_out(
             calibration=calibration,
             mixtures=mixtures,
             sigma_rule=sigma_rule,
+            floor_grid=floor_grid,
         )
         _check_never_scored(inv, [lamps.ids[i] for i in test])
         if c in inv.diagnostics["modelled_lamps"]["added"]:

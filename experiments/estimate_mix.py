@@ -11,8 +11,9 @@ lamp partitions and folds of `make estimate`, for the recommended bands and
 the reference sensors (same estimators for every band set), and on unseen
 lamp types (each scored class held out; recommended bands, partition 0).
 A third estimator (`inversion-moon-mix-metric`) is the blends' inversion with
-each metric at its own relative band error `σ_rel` (`fit_inversion(
-sigma_rule="per-metric")`): one `σ_rel` for LER, G and CCT is a trade-off.
+each metric estimated under its own band-error model, relative error `σ_rel`
+and floor (`fit_inversion(sigma_rule="per-metric", floor_grid=FLOOR_GRID)`):
+one model for LER, G and CCT is a trade-off.
 
     python -m experiments.estimate_mix [--partitions 4] [--out DIR] [--resume]
 
@@ -54,7 +55,7 @@ BAND_SETS = {
 mode in `make estimate`, and its best reference sensor there)."""
 ESTIMATORS = ("inversion-moon", "inversion-moon-mix", "inversion-moon-mix-metric")
 """The told-Moon inversion without and with mixtures in its priors, and with
-mixtures and each metric at its own `σ_rel` (`sigma_rule="per-metric"`)."""
+mixtures and each metric under its own band-error model (`σ_rel`, floor)."""
 PAIRS = (
     ("inversion-moon-mix", "inversion-moon"),
     ("inversion-moon-mix-metric", "inversion-moon-mix"),
@@ -89,9 +90,10 @@ def readme_text(summary: dict) -> str:
         f"{summary['mix_pairs']} pairs per class, flux fractions "
         f"{', '.join(f'{f:g}' for f in summary['mix_fractions'])}); "
         "`inversion-moon-mix-metric` is `inversion-moon-mix` with each metric "
-        "estimated (and its interval calibrated) at its own relative band "
-        "error `σ_rel`, chosen on the inner folds by that metric's error; the "
-        "types and the unexplained flag stay at the one joint `σ_rel`. With the "
+        "estimated (and its interval calibrated) under its own band-error "
+        "model, `σ_rel |y| + floor` with `σ_rel` and the floor chosen on the "
+        "inner folds by that metric's error; the types and the unexplained "
+        "flag keep the joint choice. With the "
         "test lamp itself in the prior the error is ~0 (partition 0, fold 0: "
         f"{summary['oracle']['LER']:.2f} lm/W, G {summary['oracle']['G']:.3f}): "
         "the prior's coverage of lamp space, not the scene, limits the estimate. "
@@ -116,7 +118,7 @@ def readme_text(summary: dict) -> str:
     lines += [
         "",
         "Paired by partition (positive = the first is worse): mixtures minus "
-        "none and per-metric `σ_rel` minus one `σ_rel`, same band set and "
+        "none and per-metric band-error models minus one, same band set and "
         "surface; reference minus recommended, same estimator and surface.",
         "",
         "| compared | estimator | surface | LER [lm/W] | G | CCT [K] |",
@@ -125,7 +127,7 @@ def readme_text(summary: dict) -> str:
     for p in summary["paired"]:
         what = {
             "inversion-moon": f"{p['band_set']}: mix − no mix",
-            "inversion-moon-mix": f"{p['band_set']}: per-metric σ − one σ",
+            "inversion-moon-mix": f"{p['band_set']}: per-metric − one error model",
         }.get(p.get("vs"), f"{p['band_set']} − {p['vs']}")
         lines.append(
             f"| {what} | {p['estimator']} | {p['surface']} | "
@@ -189,7 +191,7 @@ def figure(summary: dict, path: Path) -> None:
     fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=8, frameon=False)
     fig.suptitle(
         "Held-out measured lamps, Moon told: prior of measured lamps, with "
-        "same-class mixtures, and with per-metric σ (mean ± SD over partitions)",
+        "same-class mixtures, and per-metric error models (mean ± SD over partitions)",
         fontsize=10,
     )
     fig.subplots_adjust(
@@ -303,6 +305,11 @@ def main(argv=None) -> int:
                 mixtures=inv_mod.MIX_PAIRS if mix is None else mix,
                 calibration=calibration,
                 sigma_rule=rule,
+                floor_grid=(
+                    inv_mod.FLOOR_GRID
+                    if rule == "per-metric"
+                    else (inv_mod.SIGMA_FLOOR,)
+                ),
             )
             unseen[label] = {"by_class": _by_class(recs), "overall": _overall(recs)}
             log(f"unseen types, {label}: {time.time() - t0:.0f} s")
@@ -335,6 +342,8 @@ def main(argv=None) -> int:
             "estimators": list(ESTIMATORS),
             "mix_pairs_per_class": inv_mod.MIX_PAIRS,
             "mix_fractions": list(inv_mod.MIX_FRACTIONS),
+            "floor_grid": list(inv_mod.FLOOR_GRID),
+            "sigma_grid": list(inv_mod.SIGMA_REL_GRID),
             "unseen_types": [
                 {"label": a, "mixtures": b, "interval_calibration": c, "sigma_rule": d}
                 for a, b, c, d in UNSEEN

@@ -249,6 +249,10 @@ def test_estimator_differences_are_paired_within_a_band_set():
         assert "G_diff" not in r
 
 
+NOISE = np.array([[0.01, 1e-3], [0.1, 0.01]])
+"""Band-error models (σ_rel, floor) the scoring tests use."""
+
+
 def test_shared_candidate_fast_path_matches_per_pixel_path(lamps, basis):
     inv = inv_mod.build_inversion(
         lamps.take(range(40)), _weights(FIVE), inv_mod.Conditions.clear(GRID), basis
@@ -257,12 +261,14 @@ def test_shared_candidate_fast_path_matches_per_pixel_path(lamps, basis):
     y = rng.random((5, 5)) + 0.1
     cand, lps = inv.candidates(5)
     a, q = inv.design
-    fast = inv_mod._score(y, cand, lps, a, q, inv.prior.log_prior, [0.01, 0.1])
+    fast = inv_mod._score(y, cand, lps, a, q, inv.prior.log_prior, NOISE)
     cand2 = cand.copy()
     cand2[0, 0, 1] += 1e-9  # pixel 0 differs: the general per-pixel path runs
-    slow = inv_mod._score(y, cand2, lps, a, q, inv.prior.log_prior, [0.01, 0.1])
+    slow = inv_mod._score(y, cand2, lps, a, q, inv.prior.log_prior, NOISE)
     np.testing.assert_allclose(fast[0][1:], slow[0][1:], rtol=1e-10, atol=1e-10)
     np.testing.assert_allclose(fast[1][1:], slow[1][1:], rtol=1e-10, atol=1e-12)
+    with pytest.raises(ValueError, match=r"noise: expected \(S, 2\)"):
+        inv_mod._score(y, cand, lps, a, q, inv.prior.log_prior, [0.01, 0.1])
 
 
 @pytest.mark.parametrize("hood", ["lit_street_dark_district", "uniform"])
@@ -322,7 +328,7 @@ def test_shared_candidate_path_matches_the_per_pixel_path(moon):
     log_pk = np.log(rng.dirichlet(np.ones(k)))
     y = rng.random((n, b)) + 0.1
     y[:5] = 0.0  # dark pixels stay finite
-    sig = np.array([0.01, 0.05, 0.2])
+    sig = np.array([[0.01, 1e-3], [0.05, 0.01], [0.2, 1e-3]])  # (σ_rel, floor)
     lk, chi = inv_mod._score(
         y, np.repeat(cand[None], n, 0), np.repeat(log_ps[None], n, 0),
         amat, q, log_pk, sig,

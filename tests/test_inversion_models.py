@@ -326,7 +326,12 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
                 ids=("a", "b", "c") + ("m",) * n + ("mix:a+b@0.5",) * n_mix
             ),
             sigma_rel=0.03,
-            metric_sigmas=(0.003, 0.1, 0.03) if per else (0.03,) * 3,
+            sigma_floor=0.001,
+            metric_noise=(
+                ((0.003, 0.03), (0.1, 0.001), (0.03, 0.001))
+                if per
+                else ((0.03, 0.001),) * 3
+            ),
             diagnostics={
                 "modelled_lamps": {"n_per_class": n, "added": added},
                 "mixtures": {"n": n_mix},
@@ -357,10 +362,15 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
         )
         _, _, desc = _cmd_evaluate._fit(args, ctx, FIVE, "unknown")
         assert seen["sigma_rule"] == {"joint": "error"}.get(sigma, sigma)
+        want = inv_mod.FLOOR_GRID if sigma == "per-metric" else (inv_mod.SIGMA_FLOOR,)
+        assert seen["floor_grid"] == want
         if sigma == "joint":
-            assert "sigma_rel 0.03, 90 %" in desc
+            assert "sigma_rel 0.03 (floor 0.001), 90 %" in desc
         else:
-            assert "sigma_rel LER 0.003, G 0.1, CCT 0.03 (each metric's own" in desc
+            assert (
+                "sigma_rel LER 0.003 (floor 0.03), G 0.1 (floor 0.001), CCT 0.03 "
+                "(floor 0.001) (each metric's own" in desc
+            )
         assert seen["modelled_per_class"] == n
         assert seen["mixtures"] == mix
         assert ("with 6 pairwise blends of two measured lamps" in desc) == bool(mix)
@@ -423,8 +433,8 @@ def test_evaluate_json_says_how_many_modelled_lamps(
     assert main(argv) == 0  # the default: calibrated for unseen types too
     out = json.loads(capsys.readouterr().out)
     assert out["scene"]["intervals"] == "any-type"
-    sig = {"LER": 0.03, "G": 0.03, "CCT": 0.03, "types_and_flag": 0.03}
-    assert out["sigma_rel"] == sig
+    one = [0.03, inv_mod.SIGMA_FLOOR]
+    assert out["sigma_rel"] == {"LER": one, "G": one, "CCT": one, "types_and_flag": one}
     assert main([*argv, "--estimator", "ridge", "--sigma", "joint"]) == 2
     assert "--sigma joint: for --estimator inversion only" in capsys.readouterr().err
     assert main([*argv, "--intervals", "known-types"]) == 0

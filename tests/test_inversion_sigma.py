@@ -70,11 +70,15 @@ def test_log_evidence_normaliser_by_hand():
     """`log_evidence` adds -Σ_b log(σ|y_b|/mean|y| + floor) - b/2 log 2π."""
     y = np.array([[1.0, 2.0, 3.0]])
     got = inv_mod.log_evidence(np.array([[-1.5, -0.5]]), y, [0.1, 0.2])
+    floored = inv_mod.log_evidence(np.array([[-1.5, -0.5]]), y, [0.1, 0.2], [0.05, 0.3])
     yn = y / 2.0
     for j, s in enumerate((0.1, 0.2)):
         sd = s * yn + inv_mod.SIGMA_FLOOR
         want = [-1.5, -0.5][j] - np.log(sd).sum() - 1.5 * np.log(2 * np.pi)
         assert got[0, j] == pytest.approx(want, rel=1e-12)
+        sd = s * yn + [0.05, 0.3][j]
+        want = [-1.5, -0.5][j] - np.log(sd).sum() - 1.5 * np.log(2 * np.pi)
+        assert floored[0, j] == pytest.approx(want, rel=1e-12)
 
 
 def test_fit_chooses_sigma_by_the_rule_it_is_given(case):
@@ -116,13 +120,17 @@ def test_each_metric_comes_from_the_posterior_at_its_own_sigma(case):
     surf = ["asphalt"] * len(rad)
     rng = np.random.default_rng(1)
     noisy = rad * np.exp(rng.normal(0.0, 0.05, rad.shape))
-    per = dataclasses.replace(one, metric_sigma=(0.003, 0.3, 0.1))
+    per = dataclasses.replace(
+        one, metric_sigma=(0.003, 0.3, 0.1), metric_floor=(0.03, 0.001, 0.001)
+    )
     assert per.metric_sigmas == (0.003, 0.3, 0.1)
+    assert per.metric_noise == ((0.003, 0.03), (0.3, 0.001), (0.1, 0.001))
     assert one.metric_sigmas == (0.03, 0.03, 0.03)
+    assert one.metric_noise == ((0.03, inv_mod.SIGMA_FLOOR),) * 3
     got = per.predict(noisy, surf)
     base = one.predict(noisy, surf)
-    for m, s in enumerate(per.metric_sigmas):
-        at_s = dataclasses.replace(one, sigma_rel=s).predict(noisy, surf)
+    for m, (s, f) in enumerate(per.metric_noise):
+        at_s = dataclasses.replace(one, sigma_rel=s, sigma_floor=f).predict(noisy, surf)
         np.testing.assert_allclose(got.estimate[:, m], at_s.estimate[:, m], rtol=1e-12)
         np.testing.assert_allclose(
             got.interval90[:, m], at_s.interval90[:, m], rtol=1e-12
@@ -157,9 +165,7 @@ def test_per_metric_rule_picks_each_metrics_best_sigma_on_inner_folds(case):
     pm = d["inner_scores_per_metric"]
     for s in SIGMAS:  # the joint score is the sum of the metrics' scores
         assert sum(pm[str(s)].values()) == pytest.approx(d["inner_scores"][str(s)])
-    want = tuple(
-        min(SIGMAS, key=lambda s: pm[str(s)][m]) for m in inv_mod.METRICS
-    )
+    want = tuple(min(SIGMAS, key=lambda s: pm[str(s)][m]) for m in inv_mod.METRICS)
     assert per.metric_sigma == want
     assert d["metric_sigma"] == dict(zip(inv_mod.METRICS, want, strict=True))
     # types, flag threshold and σ_rel are the one-σ rule's
@@ -175,3 +181,63 @@ def test_per_metric_rule_picks_each_metrics_best_sigma_on_inner_folds(case):
             *args, **{**kw, "sigma_grid": (0.03,)}, sigma_rule=rule
         )
         np.testing.assert_allclose(a.conformal, b.conformal, rtol=1e-12)
+
+
+def test_floor_grid_chooses_the_band_error_floor_with_sigma(case):
+    """`floor_grid`: every (σ_rel, floor) pair is scored on the inner folds;
+    the default (one floor, `SIGMA_FLOOR`) is the fit as before, and a floor
+    far above σ_rel |y| weighs the bands uniformly (the misfit is then plain
+    least squares over floor², tested by hand)."""
+    lamps, row_lamp, rad, w = case
+    l2 = np.asarray(lamps.level2, dtype=object)
+    train = np.arange(len(lamps.ids))
+    inner = [
+        (np.setdiff1d(train, v), np.sort(v)) for v in stratified_lamp_folds(l2, 2, 0)
+    ]
+    noisy = rad * np.exp(np.random.default_rng(4).normal(0.0, 0.05, rad.shape))
+    kw = dict(
+        basis=inv_mod.surface_basis(GRID),
+        surface_mode="class",
+        row_surface=["asphalt"] * len(rad),
+        sigma_grid=(0.01, 0.1),
+    )
+    args = (noisy, row_lamp, lamps, train, inner, w, inv_mod.Conditions.clear(GRID))
+    default = inv_mod.fit_inversion(*args, **kw)
+    same = inv_mod.fit_inversion(*args, floor_grid=(inv_mod.SIGMA_FLOOR,), **kw)
+    assert default.diagnostics["inner_scores"] == same.diagnostics["inner_scores"]
+    assert set(default.diagnostics["inner_scores"]) == {"0.01", "0.1"}
+    assert default.sigma_floor == inv_mod.SIGMA_FLOOR
+    fl = inv_mod.fit_inversion(*args, floor_grid=(0.001, 0.5), **kw)
+    d = fl.diagnostics
+    assert set(d["inner_scores"]) == {"0.01/0.001", "0.1/0.001", "0.01/0.5", "0.1/0.5"}
+    # the floor-0.001 candidates are the default fit's, scored the same way
+    for s in ("0.01", "0.1"):
+        assert d["inner_scores"][f"{s}/0.001"] == pytest.approx(
+            default.diagnostics["inner_scores"][s], rel=1e-9
+        )
+    best = min(d["inner_scores"], key=d["inner_scores"].get)
+    assert f"{fl.sigma_rel:g}/{fl.sigma_floor:g}" == best
+    assert d["sigma_floor"] == fl.sigma_floor
+    with pytest.raises(ValueError, match="floor_grid"):
+        inv_mod.fit_inversion(*args, floor_grid=(0.0,), **kw)
+    with pytest.raises(ValueError, match="sigma_floor must be > 0"):
+        inv_mod.build_inversion(
+            lamps, w, inv_mod.Conditions.clear(GRID), inv_mod.surface_basis(GRID),
+            sigma_floor=0.0,
+        )  # fmt: skip
+    # a floor of 1e3 (σ_rel |y| ~ 1e-2): uniform weights, χ² = RSS / floor²
+    one = inv_mod.build_inversion(
+        lamps, w, inv_mod.Conditions.clear(GRID), inv_mod.surface_basis(GRID),
+        "class", sigma_rel=0.01, sigma_floor=1e3,
+    )  # fmt: skip
+    cand, lps = one.candidates(1, ["asphalt"])
+    a, _ = one.design
+    y = noisy[:1]
+    yn = y[0] / np.mean(np.abs(y[0]))
+    p = np.einsum("kabr,sr->ksab", a, cand[0]).reshape(-1, yn.size)  # candidates
+    alpha = np.maximum(p @ yn, 0) / np.sum(p * p, axis=1)
+    rss = np.sum((yn[None] - alpha[:, None] * p) ** 2, axis=1)
+    _, chi = inv_mod._score(y, cand, lps, a, None, np.zeros(a.shape[0]), [[0.01, 1e3]])
+    # uniform weights: the best misfit is the least RSS over floor², within
+    # the σ_rel |y| / floor ~ 1e-5 the floor leaves of the relative term
+    assert chi[0, 0] == pytest.approx(rss.min() / 1e6, rel=1e-4)
