@@ -247,9 +247,25 @@ def main(argv=None) -> int:
         help="keep finished (partition, band set) units of records.jsonl",
     )
     ap.add_argument("--no-unseen", action="store_true", help="skip unseen types")
+    ap.add_argument(
+        "--only-partitions",
+        type=int,
+        nargs="+",
+        default=None,
+        metavar="P",
+        help="compute only these partitions' units (to run partitions in "
+        "parallel processes with their own --out; concatenate their "
+        "records.jsonl and summarise with --resume)",
+    )
     args = ap.parse_args(argv)
     if args.partitions < 1:
         ap.error("--partitions must be >= 1.")
+    only = args.only_partitions
+    if only is not None and any(not 0 <= p < args.partitions for p in only):
+        ap.error(f"--only-partitions {only}: each must be in 0..{args.partitions - 1}.")
+    if only is not None and args.out is None:
+        ap.error("--only-partitions needs its own --out (a partial summary).")
+    only = range(args.partitions) if only is None else only
 
     from bandopt._config import configure
 
@@ -264,7 +280,7 @@ def main(argv=None) -> int:
     rec_path = out / "records.jsonl"
     records, done = load_records(rec_path, keep=args.resume, say=log)
     t0 = time.time()
-    units = [(p, b) for p in range(args.partitions) for b in BAND_SETS]
+    units = [(p, b) for p in only for b in BAND_SETS]
     for j, (p, name) in enumerate(units):
         if (p, name) in done:
             continue

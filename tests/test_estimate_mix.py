@@ -4,6 +4,7 @@ paired rows, the figure) on a hand-made summary."""
 import json
 
 import numpy as np
+import pytest
 
 from experiments import estimate_mix as em
 
@@ -113,3 +114,14 @@ def test_resumable_records_keep_finished_units_and_drop_a_torn_line(tmp_path):
     assert said == [f"{path}:3: unreadable line dropped (interrupted write)"]
     assert load_records(path, keep=False, say=said.append) == ([], set())
     assert not path.exists()
+
+
+def test_only_partitions_is_checked_before_any_work(capsys):
+    from experiments import estimate_mix
+
+    with pytest.raises(SystemExit):
+        estimate_mix.main(["--partitions", "2", "--only-partitions", "2", "--out", "x"])
+    assert "each must be in 0..1" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        estimate_mix.main(["--only-partitions", "0"])
+    assert "needs its own --out" in capsys.readouterr().err
