@@ -10,10 +10,8 @@ priors also hold pairwise same-class mixtures of their own lamps
 lamp partitions and folds of `make estimate`, for the recommended bands and
 the reference sensors (same estimators for every band set), and on unseen
 lamp types (each scored class held out; recommended bands, partition 0).
-A third estimator (`inversion-moon-mix-metric`) is the blends' inversion with
-each metric estimated under its own band-error model, relative error `σ_rel`
-and floor (`fit_inversion(sigma_rule="per-metric", floor_grid=FLOOR_GRID)`):
-one model for LER, G and CCT is a trade-off.
+`experiments.estimate_noise` runs this study's machinery (`Study`) on its
+own configuration.
 
     python -m experiments.estimate_mix [--partitions 4] [--out DIR] [--resume]
 
@@ -28,9 +26,11 @@ lamps only and never score.
 """
 
 import argparse
+import dataclasses
 import json
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -53,23 +53,19 @@ BAND_SETS = {
 }
 """Band sets and the surface modes each is scored in (the two with every
 mode in `make estimate`, and its best reference sensor there)."""
-ESTIMATORS = ("inversion-moon", "inversion-moon-mix", "inversion-moon-mix-metric")
-"""The told-Moon inversion without and with mixtures in its priors, and with
-mixtures and each metric under its own band-error model (`σ_rel`, floor)."""
-PAIRS = (
-    ("inversion-moon-mix", "inversion-moon"),
-    ("inversion-moon-mix-metric", "inversion-moon-mix"),
-)
+ESTIMATORS = ("inversion-moon", "inversion-moon-mix")
+"""The told-Moon inversion without and with mixtures in its priors."""
+PAIRS = (("inversion-moon-mix", "inversion-moon"),)
 """(variant, base) estimators compared paired by partition."""
 UNSEEN = (
     ("inversion-moon", 0, "lamps", "error"),
     ("inversion-moon-mix", None, "lamps", "error"),
     ("inversion-moon-mix-loco", None, "classes", "error"),
-    ("inversion-moon-mix-metric-loco", None, "classes", "per-metric"),
 )
 """Unseen-types runs: label, mixtures (None: `MIX_PAIRS`), interval
 calibration (`fit_inversion(calibration=)`; "classes" with mixtures is what
-`bandopt evaluate` does by default) and `σ_rel` rule."""
+`bandopt evaluate` does by default) and `σ_rel` rule (`SIGMA_RULES`;
+"per-metric" also chooses the floor from `FLOOR_GRID`)."""
 
 
 def log(msg: str) -> None:
@@ -88,12 +84,7 @@ def readme_text(summary: dict) -> str:
         "`inversion-moon-mix` also holds, in every prior it builds, pairwise "
         f"mixtures of that prior's own lamps of one class (up to "
         f"{summary['mix_pairs']} pairs per class, flux fractions "
-        f"{', '.join(f'{f:g}' for f in summary['mix_fractions'])}); "
-        "`inversion-moon-mix-metric` is `inversion-moon-mix` with each metric "
-        "estimated (and its interval calibrated) under its own band-error "
-        "model, `σ_rel |y| + floor` with `σ_rel` and the floor chosen on the "
-        "inner folds by that metric's error; the types and the unexplained "
-        "flag keep the joint choice. With the "
+        f"{', '.join(f'{f:g}' for f in summary['mix_fractions'])}). With the "
         "test lamp itself in the prior the error is ~0 (partition 0, fold 0: "
         f"{summary['oracle']['LER']:.2f} lm/W, G {summary['oracle']['G']:.3f}): "
         "the prior's coverage of lamp space, not the scene, limits the estimate. "
@@ -118,8 +109,8 @@ def readme_text(summary: dict) -> str:
     lines += [
         "",
         "Paired by partition (positive = the first is worse): mixtures minus "
-        "none and per-metric band-error models minus one, same band set and "
-        "surface; reference minus recommended, same estimator and surface.",
+        "none, same band set and surface; reference minus recommended, same "
+        "estimator and surface.",
         "",
         "| compared | estimator | surface | LER [lm/W] | G | CCT [K] |",
         "|---|---|---|---|---|---|",
@@ -157,6 +148,31 @@ def readme_text(summary: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+TITLE = (
+    "Held-out measured lamps, Moon told: prior of measured lamps vs with "
+    "same-class mixtures (mean ± SD over partitions)"
+)
+"""The figure's title (a summary's `"title"` replaces it)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Study:
+    """What `main` runs and writes: cross-validated estimators per band set and
+    surface modes, paired estimator pairs, unseen-types runs, and where the
+    results and the README section go."""
+
+    name: str = "estimate-mix"
+    out: str = "results/estimate_mix"
+    heading: str = "## Mixtures in the prior"
+    band_sets: dict = dataclasses.field(default_factory=lambda: dict(BAND_SETS))
+    estimators: tuple = ESTIMATORS
+    pairs: tuple = PAIRS
+    unseen: tuple = UNSEEN
+    title: str = TITLE
+    oracle: bool = True
+    readme: Callable[[dict], str] | None = None
+
+
 def figure(summary: dict, path: Path) -> None:
     """Class-balanced MAE per band set and surface mode, without and with
     mixtures, mean ± SD over partitions."""
@@ -177,23 +193,21 @@ def figure(summary: dict, path: Path) -> None:
     for ax, (m, unit) in zip(
         axes, (("LER", "lm/W"), ("G", "1"), ("CCT", "K")), strict=True
     ):
-        colours = ("C8", "C9", "C2")
-        for j, (est, colour) in enumerate(zip(ESTIMATORS, colours, strict=True)):
+        estimators = summary.get("estimators", ESTIMATORS)
+        colours = ("C8", "C9", "C2")[: len(estimators)]
+        for j, (est, colour) in enumerate(zip(estimators, colours, strict=True)):
             v = [by.get((*k, est), {}).get(m) for k in keys]
             e = [by.get((*k, est), {}).get(f"{m}_sd") or 0.0 for k in keys]
             v = [np.nan if x is None else x for x in v]
-            ax.barh(y + 0.27 * (1 - j), v, height=0.26, xerr=e,
+            off = 0.4 * (len(estimators) - 1) / 2 - 0.4 * j
+            ax.barh(y + off, v, height=0.8 / len(estimators), xerr=e,
                     color=colour, capsize=2, label=est)  # fmt: skip
         ax.set_yticks(y, [f"{b} / {s}" for b, s in keys], fontsize=8)
         ax.set_xlabel(f"class-balanced MAE {m} [{unit}]")
         ax.grid(axis="x", alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=8, frameon=False)
-    fig.suptitle(
-        "Held-out measured lamps, Moon told: prior of measured lamps, with "
-        "same-class mixtures, and per-metric error models (mean ± SD over partitions)",
-        fontsize=10,
-    )
+    fig.suptitle(summary.get("title", TITLE), fontsize=10)
     fig.subplots_adjust(
         left=0.12, right=0.98, top=1 - 0.55 / height, bottom=1.0 / height, wspace=0.08
     )
@@ -237,10 +251,11 @@ def oracle(ctx, bands) -> dict:
     return out
 
 
-def main(argv=None) -> int:
+def main(argv=None, study: Study | None = None) -> int:
+    study = Study() if study is None else study
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--partitions", type=int, default=4, help="lamp partitions")
-    ap.add_argument("--out", default=None, help="output (default results/estimate_mix)")
+    ap.add_argument("--out", default=None, help=f"output (default {study.out})")
     ap.add_argument(
         "--resume",
         action="store_true",
@@ -275,12 +290,12 @@ def main(argv=None) -> int:
     from bandopt.results import update_readme_section
     from bandopt.search import get_context
 
-    out = Path(args.out or "results/estimate_mix")
+    out = Path(args.out or study.out)
     out.mkdir(parents=True, exist_ok=True)
     rec_path = out / "records.jsonl"
     records, done = load_records(rec_path, keep=args.resume, say=log)
     t0 = time.time()
-    units = [(p, b) for p in only for b in BAND_SETS]
+    units = [(p, b) for p in only for b in study.band_sets]
     for j, (p, name) in enumerate(units):
         if (p, name) in done:
             continue
@@ -289,8 +304,8 @@ def main(argv=None) -> int:
         recs = inv_mod.cross_validate(
             ctx,
             band_set(name),
-            estimators=ESTIMATORS,
-            surface_modes=BAND_SETS[name],
+            estimators=study.estimators,
+            surface_modes=study.band_sets[name],
             seed=p,
         )
         for r in recs:
@@ -304,16 +319,16 @@ def main(argv=None) -> int:
             f"({j + 1}/{len(units)} units, {time.time() - t0:.0f} s)"
         )
     summ = inv_mod.summarise(records)
-    order = {b: i for i, b in enumerate(BAND_SETS)}
+    order = {b: i for i, b in enumerate(study.band_sets)}
     summ.sort(key=lambda r: (order[r["band_set"]], r["surface"], r["estimator"]))
-    paired = inv_mod.estimator_differences(summ, PAIRS)
-    for name in list(BAND_SETS)[1:]:
+    paired = inv_mod.estimator_differences(summ, study.pairs)
+    for name in list(study.band_sets)[1:]:
         paired += inv_mod.paired_differences(summ, "recommended", name)
     ctx0 = get_context("search", None, 0, "auto")
     rec_bands = band_set("recommended")
     unseen = {}
     if not args.no_unseen:
-        for label, mix, calibration, rule in UNSEEN:
+        for label, mix, calibration, rule in study.unseen:
             recs = inv_mod.leave_one_class_out(
                 ctx0,
                 rec_bands,
@@ -331,9 +346,13 @@ def main(argv=None) -> int:
             log(f"unseen types, {label}: {time.time() - t0:.0f} s")
     summary = {
         "partitions": args.partitions,
+        "estimators": list(study.estimators),
+        "title": study.title,
         "mix_pairs": inv_mod.MIX_PAIRS,
         "mix_fractions": list(inv_mod.MIX_FRACTIONS),
-        "oracle": oracle(ctx0, rec_bands),
+        "floor_grid": list(inv_mod.FLOOR_GRID),
+        "sigma_grid": list(inv_mod.SIGMA_REL_GRID),
+        "oracle": oracle(ctx0, rec_bands) if study.oracle else None,
         "rows": summ,
         "paired": paired,
         "unseen_types": unseen,
@@ -344,25 +363,23 @@ def main(argv=None) -> int:
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     figure(summary, out / "errors.png")
     if args.out is None:
-        update_readme_section(
-            "estimate-mix",
-            readme_text(summary),
-            heading="## Mixtures in the prior",
-        )
+        text = (study.readme or readme_text)(summary)
+        update_readme_section(study.name, text, heading=study.heading)
     write_manifest(
         out,
         seed=0,
         config={
             "partitions": args.partitions,
-            "band_sets": {k: list(v) for k, v in BAND_SETS.items()},
-            "estimators": list(ESTIMATORS),
+            "study": study.name,
+            "band_sets": {k: list(v) for k, v in study.band_sets.items()},
+            "estimators": list(study.estimators),
             "mix_pairs_per_class": inv_mod.MIX_PAIRS,
             "mix_fractions": list(inv_mod.MIX_FRACTIONS),
             "floor_grid": list(inv_mod.FLOOR_GRID),
             "sigma_grid": list(inv_mod.SIGMA_REL_GRID),
             "unseen_types": [
                 {"label": a, "mixtures": b, "interval_calibration": c, "sigma_rule": d}
-                for a, b, c, d in UNSEEN
+                for a, b, c, d in study.unseen
             ],
             "scored_lamps": "measured lamps only",
             "training_lamps": "measured lamps and their same-class mixtures",
