@@ -11,17 +11,26 @@ ridge baseline on the same pixels in the same run; reports seconds per pixel
 and their ratio, and the same for the inversion whose prior also holds
 same-class blends of its lamps (`mixture_lamps`, `MIX_PAIRS` pairs per class:
 the default of `bandopt evaluate`), each with the Moon fitted and told (as
-`bandopt evaluate` tells it). Compilation is excluded (a warm-up call
-first).
+`bandopt evaluate` tells it), and that last one with each metric at its own
+`σ_rel` (`metric_sigma`, `bandopt evaluate`'s default) against one `σ_rel`.
+Compilation is excluded (a warm-up call first).
 """
 
 import argparse
+import dataclasses
 import json
 import os
 import time
 from pathlib import Path
 
 import numpy as np
+
+
+METRIC_NOISE = ((0.01, 0.03), (0.03, 0.001), (0.03, 0.01))
+"""(σ_rel, floor) of LER, G and CCT in the per-metric timing (typical
+choices of the per-metric inversion on our bands' folds, `make estimate-noise`)."""
+TYPES_NOISE = (0.03, 0.003)
+"""(σ_rel, floor) of the types and flag in the per-metric timing."""
 
 
 def _best(fn, repeat=3):
@@ -88,6 +97,20 @@ def main(argv=None) -> int:
     moon = inv_mod.context_moon(ctx)[:n]
     t_told = _best(lambda: inv.predict(pix, moon=moon))
     t_mix_told = _best(lambda: inv_mix.predict(pix, moon=moon))
+    # each metric under its own band-error model (`bandopt evaluate --sigma
+    # per-metric`): three distinct (σ_rel, floor) models and the types' one,
+    # as chosen on the folds of `make estimate-noise` (METRIC_NOISE); one
+    # scoring per distinct model
+    inv_metric = dataclasses.replace(
+        inv_mix,
+        sigma_rel=TYPES_NOISE[0],
+        sigma_floor=TYPES_NOISE[1],
+        metric_sigma=tuple(x[0] for x in METRIC_NOISE),
+        metric_floor=tuple(x[1] for x in METRIC_NOISE),
+    )
+    inv_joint = dataclasses.replace(inv_mix, sigma_rel=0.03)
+    t_joint_told = _best(lambda: inv_joint.predict(pix, moon=moon))
+    t_metric_told = _best(lambda: inv_metric.predict(pix, moon=moon))
     out = {
         "bands": bands.name,
         "n_bands": len(bands.names),
@@ -106,8 +129,16 @@ def main(argv=None) -> int:
         "inversion_moon_told_s_per_pixel": t_told / n,
         "inversion_mix_moon_told_s_per_pixel": t_mix_told / n,
         "ratio_mix_moon_told_to_ridge": t_mix_told / t_ridge,
-        "evaluate_configuration": "inversion_mix_moon_told_s_per_pixel (blends in "
-        "the prior, the Moon told)",
+        "inversion_mix_metric_moon_told_s_per_pixel": t_metric_told / n,
+        "ratio_metric_to_one_sigma": t_metric_told / t_joint_told,
+        "metric_noise": {
+            **dict(zip(("LER", "G", "CCT"), METRIC_NOISE, strict=True)),
+            "types": TYPES_NOISE,
+        },
+        "distinct_noise_models": len({*METRIC_NOISE, TYPES_NOISE}),
+        "ratio_mix_metric_moon_told_to_ridge": t_metric_told / t_ridge,
+        "evaluate_configuration": "inversion_mix_metric_moon_told_s_per_pixel "
+        "(blends in the prior, the Moon told, each metric at its own sigma_rel)",
         "inversion_fit_s": t_fit,
         "load_average_1_5_15min": list(os.getloadavg()),
         "cpu_count": os.cpu_count(),

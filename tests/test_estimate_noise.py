@@ -44,7 +44,7 @@ def test_readme_table_and_paired_rows():
                 "LER_diff": 1.0,
                 "LER_diff_sd": 0.7,
             },
-        ],  # fmt: skip
+        ],
         "unseen_types": {},
     }
     text = en.readme_text(summary)
