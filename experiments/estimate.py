@@ -608,9 +608,11 @@ def _recommendation(summary, coverage) -> dict:
     return {
         "estimator": "inversion (bandopt.inversion), surface unknown, is the default "
         "of bandopt evaluate; it tells the inversion each scene's Moon brightness "
-        f"(rows {MOON}) and holds same-class blends of the library lamps in its "
+        f"(rows {MOON}), holds same-class blends of the library lamps in its "
         "prior (scored in results/estimate_mix/summary.json, rows "
-        "inversion-moon-mix)",
+        "inversion-moon-mix) and estimates each metric under its own band-error "
+        "model (scored in results/estimate_noise/summary.json, rows "
+        "inversion-moon-mix-metric)",
         "class_balanced_mae": rows,
         "coverage": coverage,
         "source": "results/estimate/summary.json",
