@@ -171,6 +171,7 @@ class Study:
     title: str = TITLE
     oracle: bool = True
     readme: Callable[[dict], str] | None = None
+    description: str = ""
 
 
 def figure(summary: dict, path: Path) -> None:
@@ -253,7 +254,9 @@ def oracle(ctx, bands) -> dict:
 
 def main(argv=None, study: Study | None = None) -> int:
     study = Study() if study is None else study
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(
+        description=study.description or __doc__.splitlines()[0]
+    )
     ap.add_argument("--partitions", type=int, default=4, help="lamp partitions")
     ap.add_argument("--out", default=None, help=f"output (default {study.out})")
     ap.add_argument(

@@ -123,7 +123,9 @@ def readme_text(summary: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-STUDY = dataclasses.replace(STUDY, readme=readme_text)
+STUDY = dataclasses.replace(
+    STUDY, readme=readme_text, description=__doc__.splitlines()[0]
+)
 
 
 def main(argv=None) -> int:

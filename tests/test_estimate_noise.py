@@ -53,3 +53,11 @@ def test_readme_table_and_paired_rows():
     assert "| recommended: per metric − one model | inversion-moon-mix-metric |" in text
     assert "| nightsat − recommended | inversion-moon-mix-metric |" in text
     assert "(0.003, 0.03) and floor (0.001, 0.01)" in text
+
+
+def test_help_is_this_studys(capsys):
+    import pytest
+
+    with pytest.raises(SystemExit):
+        en.main(["--help"])
+    assert "A band-error model per metric" in capsys.readouterr().out
