@@ -74,6 +74,22 @@ def log(msg: str) -> None:
     )
 
 
+def row_line(r: dict, surface: bool = True) -> str:
+    """A summary row as a README table line: band set, surface (optional),
+    estimator, MAE ± SD per metric, coverage per metric, level-1 right."""
+    cov = "/".join(
+        "n/a" if r.get(f"{m}_covered") is None else f"{r[f'{m}_covered']:.2f}"
+        for m in ("LER", "G", "CCT")
+    )
+    l1 = r.get("level1_correct")
+    where = f"{r['band_set']} | {r['surface']}" if surface else r["band_set"]
+    return (
+        f"| {where} | {r['estimator']} | "
+        f"{_fmt(r, 'LER', 1)} | {_fmt(r, 'G', 3)} | {_fmt(r, 'CCT', 0)} | "
+        f"{cov} | {'n/a' if l1 is None else f'{l1:.2f}'} |"
+    )
+
+
 def readme_text(summary: dict) -> str:
     lines = [
         "## Mixtures in the prior (`results/estimate_mix/`, `make estimate-mix`)",
@@ -95,17 +111,7 @@ def readme_text(summary: dict) -> str:
         "LER/G/CCT | level-1 right |",
         "|---|---|---|---|---|---|---|---|",
     ]
-    for r in summary["rows"]:
-        cov = "/".join(
-            "n/a" if r.get(f"{m}_covered") is None else f"{r[f'{m}_covered']:.2f}"
-            for m in ("LER", "G", "CCT")
-        )
-        l1 = r.get("level1_correct")
-        lines.append(
-            f"| {r['band_set']} | {r['surface']} | {r['estimator']} | "
-            f"{_fmt(r, 'LER', 1)} | {_fmt(r, 'G', 3)} | {_fmt(r, 'CCT', 0)} | "
-            f"{cov} | {'n/a' if l1 is None else f'{l1:.2f}'} |"
-        )
+    lines += [row_line(r) for r in summary["rows"]]
     lines += [
         "",
         "Paired by partition (positive = the first is worse): mixtures minus "

@@ -30,7 +30,7 @@ blends are built from each fit's training lamps only and never score.
 import dataclasses
 
 from experiments.estimate import diff_cells, where_lines
-from experiments.estimate_mix import Study, _fmt, main as _run
+from experiments.estimate_mix import Study, main as _run, row_line
 
 
 ONE, PER = "inversion-moon-mix", "inversion-moon-mix-metric"
@@ -79,17 +79,7 @@ def readme_text(summary: dict) -> str:
         "| level-1 right |",
         "|---|---|---|---|---|---|---|",
     ]
-    for r in summary["rows"]:
-        cov = "/".join(
-            "n/a" if r.get(f"{m}_covered") is None else f"{r[f'{m}_covered']:.2f}"
-            for m in ("LER", "G", "CCT")
-        )
-        l1 = r.get("level1_correct")
-        lines.append(
-            f"| {r['band_set']} | {r['estimator']} | {_fmt(r, 'LER', 1)} | "
-            f"{_fmt(r, 'G', 3)} | {_fmt(r, 'CCT', 0)} | {cov} | "
-            f"{'n/a' if l1 is None else f'{l1:.2f}'} |"
-        )
+    lines += [row_line(r, surface=False) for r in summary["rows"]]
     lines += [
         "",
         "Paired by partition (positive = the first is worse): per metric minus "

@@ -33,6 +33,25 @@ def case():
     return lamps, np.asarray(row_lamp), np.asarray(rows), w
 
 
+def _fit_setup(case, rad, sigma_grid=SIGMAS):
+    """`fit_inversion`'s positional arguments for pixels `rad` of the case
+    (every lamp trains; 2 class-stratified inner folds) and its keywords
+    (surface class asphalt known, `sigma_grid`)."""
+    lamps, row_lamp, _, w = case
+    l2 = np.asarray(lamps.level2, dtype=object)
+    train = np.arange(len(lamps.ids))
+    folds = stratified_lamp_folds(l2, 2, 0)
+    inner = [(np.setdiff1d(train, v), np.sort(v)) for v in folds]
+    kw = dict(
+        basis=inv_mod.surface_basis(GRID),
+        surface_mode="class",
+        row_surface=["asphalt"] * len(rad),
+        sigma_grid=sigma_grid,
+    )
+    args = (rad, row_lamp, lamps, train, inner, w, inv_mod.Conditions.clear(GRID))
+    return args, kw
+
+
 def test_evidence_peaks_at_the_band_error_actually_present(case):
     """Pixels rendered from a prior lamp: with no band error the evidence is
     highest at the smallest σ_rel; with ~10 % multiplicative band errors it
@@ -82,18 +101,7 @@ def test_log_evidence_normaliser_by_hand():
 
 
 def test_fit_chooses_sigma_by_the_rule_it_is_given(case):
-    lamps, row_lamp, rad, w = case
-    l2 = np.asarray(lamps.level2, dtype=object)
-    train = np.arange(len(lamps.ids))
-    folds = stratified_lamp_folds(l2, 2, 0)
-    inner = [(np.setdiff1d(train, v), np.sort(v)) for v in folds]
-    kw = dict(
-        basis=inv_mod.surface_basis(GRID),
-        surface_mode="class",
-        row_surface=["asphalt"] * len(rad),
-        sigma_grid=SIGMAS,
-    )
-    args = (rad, row_lamp, lamps, train, inner, w, inv_mod.Conditions.clear(GRID))
+    args, kw = _fit_setup(case, case[2])
     by_err = inv_mod.fit_inversion(*args, **kw)
     by_ev = inv_mod.fit_inversion(*args, sigma_rule="evidence", **kw)
     d_err, d_ev = by_err.diagnostics, by_ev.diagnostics
@@ -145,20 +153,10 @@ def test_each_metric_comes_from_the_posterior_at_its_own_sigma(case):
 
 
 def test_per_metric_rule_picks_each_metrics_best_sigma_on_inner_folds(case):
-    lamps, row_lamp, rad, w = case
-    l2 = np.asarray(lamps.level2, dtype=object)
-    train = np.arange(len(lamps.ids))
-    folds = stratified_lamp_folds(l2, 2, 0)
-    inner = [(np.setdiff1d(train, v), np.sort(v)) for v in folds]
+    rad = case[2]
     rng = np.random.default_rng(2)
     noisy = rad * np.exp(rng.normal(0.0, 0.05, rad.shape))
-    kw = dict(
-        basis=inv_mod.surface_basis(GRID),
-        surface_mode="class",
-        row_surface=["asphalt"] * len(rad),
-        sigma_grid=SIGMAS,
-    )
-    args = (noisy, row_lamp, lamps, train, inner, w, inv_mod.Conditions.clear(GRID))
+    args, kw = _fit_setup(case, noisy)
     by_err = inv_mod.fit_inversion(*args, **kw)
     per = inv_mod.fit_inversion(*args, sigma_rule="per-metric", **kw)
     d = per.diagnostics
@@ -188,20 +186,9 @@ def test_floor_grid_chooses_the_band_error_floor_with_sigma(case):
     the default (one floor, `SIGMA_FLOOR`) is the fit as before, and a floor
     far above σ_rel |y| weighs the bands uniformly (the misfit is then plain
     least squares over floor², tested by hand)."""
-    lamps, row_lamp, rad, w = case
-    l2 = np.asarray(lamps.level2, dtype=object)
-    train = np.arange(len(lamps.ids))
-    inner = [
-        (np.setdiff1d(train, v), np.sort(v)) for v in stratified_lamp_folds(l2, 2, 0)
-    ]
+    lamps, _, rad, w = case
     noisy = rad * np.exp(np.random.default_rng(4).normal(0.0, 0.05, rad.shape))
-    kw = dict(
-        basis=inv_mod.surface_basis(GRID),
-        surface_mode="class",
-        row_surface=["asphalt"] * len(rad),
-        sigma_grid=(0.01, 0.1),
-    )
-    args = (noisy, row_lamp, lamps, train, inner, w, inv_mod.Conditions.clear(GRID))
+    args, kw = _fit_setup(case, noisy, sigma_grid=(0.01, 0.1))
     default = inv_mod.fit_inversion(*args, **kw)
     same = inv_mod.fit_inversion(*args, floor_grid=(inv_mod.SIGMA_FLOOR,), **kw)
     assert default.diagnostics["inner_scores"] == same.diagnostics["inner_scores"]
