@@ -68,6 +68,7 @@ folds' held-out lamps is flagged `unexplained` (and its type is not guessed).
 
 import dataclasses
 import functools
+import itertools
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -157,6 +158,15 @@ INTERVAL_FLOOR = np.array([1.0, 0.005, 2.0])
 """Smallest half-width of a posterior range before conformal scaling, in model
 space (LER [lm W⁻¹], G [1], CCT [mired]): a posterior concentrated on one
 lamp still gets an interval."""
+
+INTERVAL_OFFSET_GRID = (0.0, 0.01, 0.03, 0.1, 0.3, 1.0)
+"""Candidate offsets of the conformal interval's unit, as fractions of the
+metric's spread over the training lamps (model space), for `fit_inversion(
+interval_offsets=)`: a pixel's interval is its posterior 5-95 % range
+widened by `conformal x (half-width + offset)`. 0 scales with the
+posterior's width alone (a concentrated posterior gets a narrow interval,
+a broad one a very wide one); large offsets widen every pixel by nearly the
+same amount (additive, as `Romano2019`'s conformalised quantile regression)."""
 
 CHUNK = 64
 """Pixels scored per compiled call (bounds memory to ~200 MB)."""
@@ -1068,6 +1078,33 @@ class Inversion:
     metric_sigma: tuple[float, ...] = ()
     sigma_floor: float = SIGMA_FLOOR
     metric_floor: tuple[float, ...] = ()
+    interval_offset: tuple[float, ...] = ()
+
+    @property
+    def offsets(self) -> np.ndarray:
+        """Offset added to each metric's posterior half-width before conformal
+        scaling (3,), model space (`fit_inversion(interval_offsets=)`; zeros
+        by default)."""
+        return np.asarray(self.interval_offset or (0.0,) * 3, float)
+
+    def with_interval_offset(self, fraction: float) -> "Inversion":
+        """This inversion with the intervals of one candidate offset of its
+        fit's `interval_offsets` (a fraction of each metric's spread) for all
+        three metrics: same posterior and estimates, the conformal factors
+        calibrated for that offset on the same held-out lamps."""
+        cands = self.diagnostics.get("interval_candidates", {})
+        key = f"{float(fraction):g}"
+        if key not in cands:
+            raise ValueError(
+                f"interval offset {fraction!r}: this fit calibrated only "
+                f"{sorted(cands, key=float)} (fit_inversion(interval_offsets=))."
+            )
+        c = cands[key]
+        return dataclasses.replace(
+            self,
+            conformal=np.array([c["conformal"][m] for m in METRICS]),
+            interval_offset=tuple(float(c["offset"][m]) for m in METRICS),
+        )
 
     @property
     def metric_sigmas(self) -> tuple[float, float, float]:
@@ -1248,6 +1285,18 @@ def _metrics_per_posterior(posts, prior: LampPrior):
     return mean, rng, done[id(posts[2])][2]
 
 
+def _widened(mean, rng, conformal, offset):
+    """Posterior means clipped to the physical range and the 90 % interval
+    `range ± conformal x (max(half-width, INTERVAL_FLOOR) + offset)`, clipped
+    likewise and stretched to hold the mean; model space, (n, 3) each."""
+    lo_b, hi_b = _model_bounds()
+    unit = np.maximum((rng[..., 1] - rng[..., 0]) / 2, INTERVAL_FLOOR) + offset
+    lo = np.clip(rng[..., 0] - conformal * unit, lo_b, hi_b)
+    hi = np.clip(rng[..., 1] + conformal * unit, lo_b, hi_b)
+    mean = np.clip(mean, lo_b, hi_b)
+    return mean, np.minimum(lo, mean), np.maximum(hi, mean)
+
+
 def _result(inv: Inversion, post, misfit, by_metric=None) -> InversionResult:
     """Estimates, intervals, flags and types of the posterior `post` (n, k);
     `by_metric`: one posterior per metric for the estimates and intervals
@@ -1255,12 +1304,7 @@ def _result(inv: Inversion, post, misfit, by_metric=None) -> InversionResult:
     mean, rng, p_cct = _metrics_per_posterior(
         [post] * 3 if by_metric is None else by_metric, inv.prior
     )
-    lo_b, hi_b = _model_bounds()
-    half = np.maximum((rng[..., 1] - rng[..., 0]) / 2, INTERVAL_FLOOR)
-    lo = np.clip(rng[..., 0] - inv.conformal * half, lo_b, hi_b)
-    hi = np.clip(rng[..., 1] + inv.conformal * half, lo_b, hi_b)
-    mean = np.clip(mean, lo_b, hi_b)
-    lo, hi = np.minimum(lo, mean), np.maximum(hi, mean)
+    mean, lo, hi = _widened(mean, rng, inv.conformal, inv.offsets)
     est = mean.copy()
     est[:, 2] = np.where(p_cct >= 0.5, MIRED / mean[:, 2], np.nan)
     # mired interval [lo, hi] is CCT [MIRED/hi, MIRED/lo]
@@ -1330,6 +1374,7 @@ def fit_inversion(
     row_moon=None,
     calibration: str = "lamps",
     mixtures: int = 0,
+    interval_offsets: Sequence[float] = (0.0,),
 ) -> Inversion:
     """Fit an inversion on `train_lamps` (indices into `lamps`).
 
@@ -1380,7 +1425,22 @@ def fit_inversion(
     pairwise mixtures of its own measured lamps (`mixture_lamps`, at most
     `mixtures` pairs per class, seed `modelled_seed`): the final prior's of
     `train_lamps` and `always`, each inner fold's of its own training lamps
-    and `always`. `diagnostics["mixtures"]` says how many."""
+    and `always`. `diagnostics["mixtures"]` says how many.
+
+    `interval_offsets` (default `(0.0,)`: the interval's unit is the
+    posterior's half-width, as before; `INTERVAL_OFFSET_GRID` to choose):
+    candidate offsets, as fractions of each metric's spread over
+    `train_lamps`, added to the half-width before conformal scaling; each
+    metric takes the candidate whose calibrated intervals are narrowest on
+    the held-out calibration lamps (`_narrowest_intervals`; every candidate
+    is calibrated to the same coverage there). `diagnostics
+    ["interval_candidates"]` holds each candidate's factors and mean widths,
+    so `Inversion.with_interval_offset` gives any candidate's intervals."""
+    fracs = [float(x) for x in interval_offsets]
+    if not fracs or min(fracs) < 0 or len(set(fracs)) != len(fracs):
+        raise ValueError(
+            f"interval_offsets {tuple(interval_offsets)}: need distinct values >= 0."
+        )
     if calibration not in CALIBRATIONS:
         raise ValueError(
             f"calibration {calibration!r}: expected one of {CALIBRATIONS}."
@@ -1524,7 +1584,9 @@ def fit_inversion(
                 [posts[:, sig.index(x)] for x in per_metric], inv.prior
             )
             held_out.append((rows, mean, rng, misfits[:, sig.index(best)], va))
-    conf = _conformal_factors(held_out, row_lamp, l2, tm, valid)
+    offs = np.array(fracs)[:, None] * spread[None]
+    pick, confs, widths = _narrowest_intervals(held_out, row_lamp, l2, tm, valid, offs)
+    conf, offset = confs[pick, np.arange(3)], offs[pick, np.arange(3)]
     mis_all, w_all = [], []
     for rows, _mean, _rng, misfit, va in calib[best]:
         mis_all.append(misfit)
@@ -1549,6 +1611,7 @@ def fit_inversion(
         threshold=thr,
         metric_sigma=tuple(x[0] for x in per_metric) if per else (),
         metric_floor=tuple(x[1] for x in per_metric) if per else (),
+        interval_offset=tuple(offset.tolist()),
         diagnostics={
             "sigma_rel": best[0],
             "sigma_floor": best[1],
@@ -1567,6 +1630,15 @@ def fit_inversion(
                 key(s): float(np.mean(v)) for s, v in evid.items()
             },
             "conformal_factor": dict(zip(METRICS, conf.tolist(), strict=True)),
+            "interval_offset": {m: fracs[pick[j]] for j, m in enumerate(METRICS)},
+            "interval_candidates": {
+                f"{f:g}": {
+                    "offset": dict(zip(METRICS, offs[c].tolist(), strict=True)),
+                    "conformal": dict(zip(METRICS, confs[c].tolist(), strict=True)),
+                    "mean_width": dict(zip(METRICS, widths[c].tolist(), strict=True)),
+                }
+                for c, f in enumerate(fracs)
+            },
             "unexplained_threshold_reduced_chi2": thr,
             "n_prior_lamps": len(final.prior.ids),
             "mixtures": {
@@ -1608,15 +1680,17 @@ def _row_weights(rows, va, row_lamp, l2) -> np.ndarray:
     return np.array([lamp_w[l] / counts[l] for l in rl])
 
 
-def _conformal_factors(held_out, row_lamp, l2, tm, valid) -> np.ndarray:
+def _conformal_factors(held_out, row_lamp, l2, tm, valid, offset=0.0) -> np.ndarray:
     """Split-conformal factor per metric (3,): the `COVERAGE` weighted
     quantile over held-out rows of the distance of the true value outside the
-    posterior 5-95 % range, in half-widths (`held_out`: (rows, mean, range,
-    misfit, lamps) per held-out set; rows class-balanced within a set)."""
+    posterior 5-95 % range, in units of `max(half-width, INTERVAL_FLOOR) +
+    offset` (`offset`: (3,) or scalar, model space; `held_out`: (rows, mean,
+    range, misfit, lamps) per held-out set; rows class-balanced within a
+    set)."""
     s_all, w_all = [], []
     for rows, _mean, rng, _misfit, va in held_out:
         rl = row_lamp[rows]
-        half = np.maximum((rng[..., 1] - rng[..., 0]) / 2, INTERVAL_FLOOR)
+        half = np.maximum((rng[..., 1] - rng[..., 0]) / 2, INTERVAL_FLOOR) + offset
         y = tm[rl]
         score = np.maximum(rng[..., 0] - y, y - rng[..., 1]) / half
         s_all.append(np.where(valid[rl], score, np.nan))
@@ -1630,6 +1704,29 @@ def _conformal_factors(held_out, row_lamp, l2, tm, valid) -> np.ndarray:
             0.0,
         )
     return conf
+
+
+def _narrowest_intervals(held_out, row_lamp, l2, tm, valid, offsets):
+    """Per metric, the candidate offset (`offsets` (C, 3), model space) whose
+    conformal intervals are narrowest on the held-out rows at their
+    calibrated coverage: the class-balanced mean width of the clipped
+    intervals (`_widened`; ties: the first). Returns the chosen index per
+    metric (3,), the conformal factors (C, 3) and the mean widths (C, 3)."""
+    offsets = np.asarray(offsets, float)
+    conf = np.array(
+        [_conformal_factors(held_out, row_lamp, l2, tm, valid, o) for o in offsets]
+    )
+    width = np.zeros(offsets.shape)
+    for c, o in enumerate(offsets):
+        num, den = np.zeros(3), np.zeros(3)
+        for rows, mean, rng, _misfit, va in held_out:
+            _, lo, hi = _widened(mean, rng, conf[c], o)
+            ok = valid[row_lamp[rows]]
+            w = _row_weights(rows, va, row_lamp, l2)[:, None] * ok
+            num += np.sum(w * np.where(ok, hi - lo, 0.0), axis=0)
+            den += w.sum(axis=0)
+        width[c] = num / np.maximum(den, 1e-300)
+    return np.argmin(width, axis=0), conf, width
 
 
 # ------------------------------------------------------------------------------
@@ -1670,6 +1767,14 @@ MIX_METRIC_ESTIMATOR = "inversion-moon-mix-metric"
 """`cross_validate` estimator: `MIX_ESTIMATOR` with each metric estimated
 with its own band-error model, `σ_rel` and floor (`fit_inversion(
 sigma_rule="per-metric", floor_grid=FLOOR_GRID)`)."""
+
+NARROW_ESTIMATOR = "inversion-moon-mix-metric-narrow"
+"""`cross_validate` estimator: `MIX_METRIC_ESTIMATOR` with each metric's
+interval unit offset chosen for the narrowest calibrated intervals
+(`fit_inversion(interval_offsets=INTERVAL_OFFSET_GRID)`): the same
+estimates, other intervals. Asked for together with `MIX_METRIC_ESTIMATOR`,
+both come from one fit (that one at offset 0, `Inversion.
+with_interval_offset`)."""
 
 MODEL_NOISE_SEED_OFFSET = 15485863
 """Noise seed offset of modelled lamps' rows (a prime): with photon noise,
@@ -1990,8 +2095,13 @@ def cross_validate(
                 MOON_UNSEEN_ESTIMATOR,
                 MIX_ESTIMATOR,
                 MIX_METRIC_ESTIMATOR,
+                NARROW_ESTIMATOR,
             ):
-                mix = name in (MIX_ESTIMATOR, MIX_METRIC_ESTIMATOR)
+                narrow = name == NARROW_ESTIMATOR
+                if name == MIX_METRIC_ESTIMATOR and NARROW_ESTIMATOR in estimators:
+                    continue  # scored from the narrow fit at offset 0
+                per = name in (MIX_METRIC_ESTIMATOR, NARROW_ESTIMATOR)
+                mix = per or name == MIX_ESTIMATOR
                 told = mix or name in (MOON_ESTIMATOR, MOON_UNSEEN_ESTIMATOR)
                 moon_rows = context_moon(ctx) if told else None
                 n_model = modelled_per_class if name == "inversion+models" else 0
@@ -2012,20 +2122,20 @@ def cross_validate(
                         modelled_per_class=n_model,
                         modelled_classes=modelled_classes,
                         modelled_seed=seed,
-                        sigma_rule={
-                            EVIDENCE_ESTIMATOR: "evidence",
-                            MIX_METRIC_ESTIMATOR: "per-metric",
-                        }.get(name, "error"),
+                        sigma_rule=(
+                            "per-metric"
+                            if per
+                            else "evidence"
+                            if name == EVIDENCE_ESTIMATOR
+                            else "error"
+                        ),
                         row_moon=moon_rows,
                         calibration=(
                             "classes" if name == MOON_UNSEEN_ESTIMATOR else "lamps"
                         ),
                         mixtures=MIX_PAIRS if mix else 0,
-                        floor_grid=(
-                            FLOOR_GRID
-                            if name == MIX_METRIC_ESTIMATOR
-                            else (SIGMA_FLOOR,)
-                        ),
+                        floor_grid=FLOOR_GRID if per else (SIGMA_FLOOR,),
+                        interval_offsets=INTERVAL_OFFSET_GRID if narrow else (0.0,),
                     )
                     sub = (
                         None
@@ -2038,6 +2148,12 @@ def cross_validate(
                     )
                     moon_sub = None if moon_rows is None else moon_rows[rows]
                     preds[(name, mode)] = (inv.predict(rad[rows], sub, moon_sub), inv)
+                    if narrow and MIX_METRIC_ESTIMATOR in estimators:
+                        base = inv.with_interval_offset(0.0)
+                        preds[(MIX_METRIC_ESTIMATOR, mode)] = (
+                            base.predict(rad[rows], sub, moon_sub),
+                            base,
+                        )
             elif name == "ridge":
                 est = fit_estimator(rad, ctx.table, s.train, inner)
                 preds[("ridge", "unknown")] = (np.asarray(est.predict(rad[rows])), None)
@@ -2078,7 +2194,7 @@ def cross_validate(
                     f"estimator {name!r}: expected one of "
                     f"{(*ESTIMATORS, *MODELLED_ESTIMATORS)} or "
                     f"{(EVIDENCE_ESTIMATOR, MOON_ESTIMATOR, MOON_UNSEEN_ESTIMATOR)}"
-                    f" or {(MIX_ESTIMATOR, MIX_METRIC_ESTIMATOR)}."
+                    f" or {(MIX_ESTIMATOR, MIX_METRIC_ESTIMATOR, NARROW_ESTIMATOR)}."
                 )
         for (name, mode), (p, inv) in preds.items():
             res = p if isinstance(p, InversionResult) else None
@@ -2115,11 +2231,7 @@ def cross_validate(
                     else:
                         rec[name_m] = float(np.mean(np.abs(v - t[m])))
                 if res is not None:
-                    iv = res.interval90[sel]
-                    for m, name_m in enumerate(METRICS):
-                        if valid[lamp, m]:
-                            inside = (iv[:, m, 0] <= t[m]) & (t[m] <= iv[:, m, 1])
-                            rec[f"{name_m}_covered"] = float(np.mean(inside))
+                    rec.update(_interval_fields(res.interval90[sel], t, valid[lamp]))
                     l1 = np.array(res.level1, dtype=object)[sel]
                     rec["level1_correct"] = float(np.mean(l1 == lamps.level1[lamp]))
                     l2p = np.array(res.level2, dtype=object)[sel]
@@ -2131,6 +2243,23 @@ def cross_validate(
                 if modelled_per_class > 0:
                     rec.update(model_info.get(name) or _modelled_fields(inv))
                 out.append(rec)
+    return out
+
+
+def _interval_fields(iv, truth, valid) -> dict:
+    """Per valid metric of one lamp: the fraction of its pixels whose 90 %
+    interval `iv` (n, 3, 2) holds the true value (`{m}_covered`) and the
+    intervals' mean width (`{m}_width`: lm/W, 1, K; CCT also in mired,
+    `CCT_width_mired`)."""
+    out = {}
+    for m, name in enumerate(METRICS):
+        if not valid[m]:
+            continue
+        lo, hi = iv[:, m, 0], iv[:, m, 1]
+        out[f"{name}_covered"] = float(np.mean((lo <= truth[m]) & (truth[m] <= hi)))
+        out[f"{name}_width"] = float(np.mean(hi - lo))
+        if name == "CCT":
+            out["CCT_width_mired"] = float(np.mean(MIRED / lo - MIRED / hi))
     return out
 
 
@@ -2198,6 +2327,10 @@ SUMMARY_COLUMNS = (
     "LER_covered",
     "G_covered",
     "CCT_covered",
+    "LER_width",
+    "G_width",
+    "CCT_width",
+    "CCT_width_mired",
     "level1_correct",
     "level2_correct",
     "unexplained",
@@ -2257,12 +2390,16 @@ def paired_differences(summary_rows, reference: str, against: str):
     return out
 
 
-def _paired_by_partition(row_a, row_b, out: dict) -> dict:
-    """`out` plus, per metric, `a - b` of two summary rows paired by
-    partition: mean (`_diff`), SD (ddof 1, `_diff_sd`) and mean relative to
-    b's (`_relative`); metrics without matching per-partition values are left
-    out."""
-    for m in ("LER", "G", "CCT", "CCT_mired"):
+PAIRED_COLUMNS = ("LER", "G", "CCT", "CCT_mired")
+"""Summary columns `_paired_by_partition` compares by default (the errors)."""
+
+
+def _paired_by_partition(row_a, row_b, out: dict, columns=PAIRED_COLUMNS) -> dict:
+    """`out` plus, per column of `columns`, `a - b` of two summary rows paired
+    by partition: mean (`_diff`), SD (ddof 1, `_diff_sd`) and mean relative
+    to b's (`_relative`); columns without matching per-partition values are
+    left out."""
+    for m in columns:
         a, b = row_a.get(f"{m}_per_partition"), row_b.get(f"{m}_per_partition")
         if not a or not b or len(a) != len(b):
             continue
@@ -2287,11 +2424,12 @@ modelled training lamps, the evidence rule for `σ_rel`, the told Moon and
 mixtures in the told-Moon prior change."""
 
 
-def estimator_differences(summary_rows, pairs=ESTIMATOR_PAIRS):
+def estimator_differences(summary_rows, pairs=ESTIMATOR_PAIRS, columns=PAIRED_COLUMNS):
     """Per band set, surface and (variant, base) pair of `pairs`: MAE of the
-    variant minus the base estimator, paired by partition (the same folds and
-    test lamps); mean, SD over partitions (ddof 1) and relative change of the
-    mean. Pairs missing from `summary_rows` are skipped."""
+    variant minus the base estimator (or any other summary `columns`), paired
+    by partition (the same folds and test lamps); mean, SD over partitions
+    (ddof 1) and relative change of the mean. Pairs missing from
+    `summary_rows` are skipped."""
     by = {(r["band_set"], r["estimator"], r["surface"]): r for r in summary_rows}
     out = []
     for variant, base in pairs:
@@ -2299,8 +2437,9 @@ def estimator_differences(summary_rows, pairs=ESTIMATOR_PAIRS):
             if est != variant or (bs, base, surf) not in by:
                 continue
             row = {"band_set": bs, "surface": surf, "estimator": variant, "vs": base}
-            out.append(_paired_by_partition(r, by[(bs, base, surf)], row))
+            out.append(_paired_by_partition(r, by[(bs, base, surf)], row, columns))
     return out
+
 
 def _fractions(labels) -> dict[str, float]:
     """Fraction of each label among `labels` (None: "unexplained"), by
@@ -2326,6 +2465,7 @@ def leave_one_class_out(
     mixtures: int = 0,
     sigma_rule: str = "error",
     floor_grid: Sequence[float] = (SIGMA_FLOOR,),
+    interval_offsets: Sequence[float] = (0.0,),
 ):
     """Unseen lamp types: for every scored level-2 class, fit on all other
     classes (inner folds: 2 class-stratified lamp folds of those) and score its
@@ -2344,7 +2484,16 @@ def leave_one_class_out(
     fit's training classes held out in turn, never the scored class).
     `mixtures`: pairwise same-class mixtures of the prior's lamps
     (`fit_inversion(mixtures=)`; never of the held-out class: its lamps are
-    not in any prior). `sigma_rule`, `floor_grid`: as `fit_inversion`'s."""
+    not in any prior). `sigma_rule`, `floor_grid`, `interval_offsets`: as
+    `fit_inversion`'s; with more than one offset (0 among them) every lamp
+    gets two records from the one fit, `"intervals": "narrowest"` and
+    `"offset 0"` (`Inversion.with_interval_offset(0)`), the same but for the
+    intervals."""
+    two = len(interval_offsets) > 1
+    if two and 0.0 not in [float(x) for x in interval_offsets]:
+        raise ValueError(
+            f"interval_offsets {tuple(interval_offsets)}: several need 0 among them."
+        )
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
     rad = ctx.radiance(bands)
@@ -2380,6 +2529,7 @@ def leave_one_class_out(
             mixtures=mixtures,
             sigma_rule=sigma_rule,
             floor_grid=floor_grid,
+            interval_offsets=interval_offsets,
         )
         _check_never_scored(inv, [lamps.ids[i] for i in test])
         if c in inv.diagnostics["modelled_lamps"]["added"]:
@@ -2392,7 +2542,11 @@ def leave_one_class_out(
         )
         moon_sub = None if moon_rows is None else moon_rows[rows]
         res = inv.predict(rad[rows], sub, moon_sub)
-        for lamp in test:
+        variants = [("narrowest", res.interval90)] if two else [(None, res.interval90)]
+        if two:
+            base = inv.with_interval_offset(0.0).predict(rad[rows], sub, moon_sub)
+            variants.append(("offset 0", base.interval90))
+        for lamp, (tag, iv90) in itertools.product(test, variants):
             sel = row_lamp[rows] == lamp
             t, v = ctx.table.truth[lamp], ctx.table.valid[lamp]
             rec = {
@@ -2419,10 +2573,9 @@ def leave_one_class_out(
                 e = res.estimate[sel, m]
                 ee = np.where(np.isfinite(e), e, CCT_RANGE_K[1]) if name == "CCT" else e
                 rec[name] = float(np.mean(np.abs(ee - t[m])))
-                iv = res.interval90[sel, m]
-                rec[f"{name}_covered"] = float(
-                    np.mean((iv[:, 0] <= t[m]) & (t[m] <= iv[:, 1]))
-                )
+            rec.update(_interval_fields(iv90[sel], t, v))
+            if tag is not None:
+                rec["intervals"] = tag
             if modelled_per_class > 0:
                 rec.update(_modelled_fields(inv))
             out.append(rec)

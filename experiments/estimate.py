@@ -631,6 +631,9 @@ def _by_class(recs):
             "LER_covered",
             "G_covered",
             "CCT_covered",
+            "LER_width",
+            "G_width",
+            "CCT_width",
             "level1_correct",
             "unexplained",
         ):
@@ -655,10 +658,13 @@ def _overall(recs):
         "LER_covered",
         "G_covered",
         "CCT_covered",
+        "LER_width",
+        "G_width",
+        "CCT_width",
         "level1_correct",
         "unexplained",
     ):
-        v = [row[k] for row in bc.values() if row[k] is not None]
+        v = [row[k] for row in bc.values() if row.get(k) is not None]
         res[k] = float(np.mean(v)) if v else None
     res["level1_correct_where_family_in_prior"] = float(
         np.mean(

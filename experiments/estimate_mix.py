@@ -65,7 +65,18 @@ UNSEEN = (
 """Unseen-types runs: label, mixtures (None: `MIX_PAIRS`), interval
 calibration (`fit_inversion(calibration=)`; "classes" with mixtures is what
 `bandopt evaluate` does by default) and `σ_rel` rule (`SIGMA_RULES`;
-"per-metric" also chooses the floor from `FLOOR_GRID`)."""
+"per-metric" also chooses the floor from `FLOOR_GRID`); optionally a fifth,
+the interval offsets (`fit_inversion(interval_offsets=)`; several: the
+offset-0 intervals of the same fit are reported too, as "LABEL (offset 0)")."""
+
+
+def _by_intervals(recs) -> dict:
+    """Unseen-types records by their `"intervals"` tag (None when untagged:
+    one kind of interval), in order of first appearance."""
+    out: dict = {}
+    for r in recs:
+        out.setdefault(r.get("intervals"), []).append(r)
+    return out
 
 
 def log(msg: str) -> None:
@@ -178,6 +189,9 @@ class Study:
     oracle: bool = True
     readme: Callable[[dict], str] | None = None
     description: str = ""
+    paired_columns: tuple = ()
+    figure: Callable[[dict, Path], None] | None = None
+    figure_name: str = "errors.png"
 
 
 def figure(summary: dict, path: Path) -> None:
@@ -330,14 +344,16 @@ def main(argv=None, study: Study | None = None) -> int:
     summ = inv_mod.summarise(records)
     order = {b: i for i, b in enumerate(study.band_sets)}
     summ.sort(key=lambda r: (order[r["band_set"]], r["surface"], r["estimator"]))
-    paired = inv_mod.estimator_differences(summ, study.pairs)
+    paired = inv_mod.estimator_differences(
+        summ, study.pairs, study.paired_columns or inv_mod.PAIRED_COLUMNS
+    )
     for name in list(study.band_sets)[1:]:
         paired += inv_mod.paired_differences(summ, "recommended", name)
     ctx0 = get_context("search", None, 0, "auto")
     rec_bands = band_set("recommended")
     unseen = {}
     if not args.no_unseen:
-        for label, mix, calibration, rule in study.unseen:
+        for label, mix, calibration, rule, *offsets in study.unseen:
             recs = inv_mod.leave_one_class_out(
                 ctx0,
                 rec_bands,
@@ -350,8 +366,11 @@ def main(argv=None, study: Study | None = None) -> int:
                     if rule == "per-metric"
                     else (inv_mod.SIGMA_FLOOR,)
                 ),
+                interval_offsets=offsets[0] if offsets else (0.0,),
             )
-            unseen[label] = {"by_class": _by_class(recs), "overall": _overall(recs)}
+            for tag, rs in _by_intervals(recs).items():
+                key = label if tag in (None, "narrowest") else f"{label} ({tag})"
+                unseen[key] = {"by_class": _by_class(rs), "overall": _overall(rs)}
             log(f"unseen types, {label}: {time.time() - t0:.0f} s")
     summary = {
         "partitions": args.partitions,
@@ -370,7 +389,7 @@ def main(argv=None, study: Study | None = None) -> int:
         "modelled_lamps_used": False,
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    figure(summary, out / "errors.png")
+    (study.figure or figure)(summary, out / study.figure_name)
     if args.out is None:
         text = (study.readme or readme_text)(summary)
         update_readme_section(study.name, text, heading=study.heading)

@@ -1,0 +1,85 @@
+"""`experiments/estimate_intervals.py`: its study, the summary and README
+text it builds from per-lamp records (the runs themselves are `make
+estimate-intervals`)."""
+
+import pytest
+
+from bandopt import inversion as inv_mod
+from experiments import estimate_intervals as ei
+from experiments.estimate import _overall
+from experiments.estimate_mix import _by_intervals
+
+
+def test_study_scores_both_units_from_one_fit_for_every_band_set():
+    s = ei.STUDY
+    assert ei.GRID == inv_mod.INTERVAL_OFFSET_GRID
+    assert (ei.BASE, ei.NARROW) == (
+        inv_mod.MIX_METRIC_ESTIMATOR,
+        inv_mod.NARROW_ESTIMATOR,
+    )
+    assert s.estimators == (ei.BASE, ei.NARROW) and s.pairs == ((ei.NARROW, ei.BASE),)
+    assert set(s.band_sets) == {"recommended", "sdgsat-1", "nightsat"}
+    (label, _mix, calibration, rule, grid), = s.unseen  # fmt: skip
+    assert (calibration, rule, grid) == ("classes", "per-metric", ei.GRID)
+    assert label == f"{ei.NARROW}-loco"
+    assert s.figure_name == "intervals.png" and s.out == "results/estimate_intervals"
+
+
+def _records(est, width, covered):
+    """Two partitions x two lamps of two classes, one band set."""
+    return [
+        {
+            "band_set": "recommended", "estimator": est, "surface": "unknown",
+            "partition": p, "lamp": f"l{i}", "level2": f"c{i}", "out_of_range": 0,
+            "LER": 10.0, "G": 0.3, "CCT": 300.0, "CCT_mired": 20.0,
+            "LER_covered": covered, "G_covered": 1.0, "CCT_covered": 1.0,
+            "LER_width": width * (1 + p) + i, "G_width": 0.5, "CCT_width": 900.0,
+            "CCT_width_mired": 80.0,
+        }
+        for p in (0, 1)
+        for i in (0, 1)
+    ]  # fmt: skip
+
+
+def test_summary_pairs_widths_and_coverage_and_the_readme_says_so():
+    recs = _records(ei.BASE, 300.0, 1.0) + _records(ei.NARROW, 200.0, 0.5)
+    rows = inv_mod.summarise(recs)
+    by = {r["estimator"]: r for r in rows}
+    # per partition the class-balanced mean width: 300 x (1 + p) + 0.5
+    assert by[ei.BASE]["LER_width_per_partition"] == [300.5, 600.5]
+    (p,) = inv_mod.estimator_differences(rows, ei.STUDY.pairs, ei.WIDTH_COLUMNS)
+    assert p["LER_width_diff"] == pytest.approx(-150.0)  # (-100 - 200) / 2
+    assert p["LER_width_diff_sd"] == pytest.approx(70.71, abs=0.01)
+    assert p["LER_covered_diff"] == pytest.approx(-0.5)
+    assert "LER_diff" not in p  # errors are not among the compared columns
+    text = ei.readme_text(
+        {"partitions": 2, "offset_grid": list(ei.GRID), "rows": rows,
+         "paired": [p], "unseen_types": {}}
+    )  # fmt: skip
+    row = f"| recommended | {ei.NARROW} | 0.50/1.00/1.00 | 300 ± 141 |"
+    assert row in text
+    assert (
+        "| recommended | -150 ± 71 | +0.000 ± 0.000 | +0 ± 0 | -0.50 ± 0.00 |" in text
+    )
+
+
+def test_unseen_records_split_by_their_intervals():
+    recs = []
+    for tag, cov in (("narrowest", 0.5), ("offset 0", 1.0)):
+        for c in ("hps", "lps"):
+            recs.append(
+                {"held_out_class": c, "level1_in_prior": True, "LER_covered": cov,
+                 "LER_width": 100 * cov, "level1_correct": 1.0, "unexplained": 0.0,
+                 "out_of_range": 0, "intervals": tag}
+            )  # fmt: skip
+    split = _by_intervals(recs)
+    assert list(split) == ["narrowest", "offset 0"]
+    assert _overall(split["narrowest"])["LER_width"] == 50.0
+    assert _overall(split["offset 0"])["LER_covered"] == 1.0
+    assert list(_by_intervals([{"a": 1}])) == [None]
+
+
+def test_help_is_this_studys(capsys):
+    with pytest.raises(SystemExit):
+        ei.main(["--help"])
+    assert "Narrower 90 % intervals" in capsys.readouterr().out
