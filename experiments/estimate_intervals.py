@@ -70,6 +70,19 @@ def _diff(p: dict, col: str, nd: int) -> str:
     return f"{v:+.{nd}f}" + ("" if sd is None else f" ± {sd:.{nd}f}")
 
 
+def _lowest_class(by_class: dict) -> str:
+    """' Lowest held-out class: ...' per metric (the class whose true values
+    the intervals hold least often), or '' without classes."""
+    parts = []
+    for m, _, _ in METRIC_UNITS:
+        cov = {c: r[f"{m}_covered"] for c, r in by_class.items()
+               if r.get(f"{m}_covered") is not None}  # fmt: skip
+        if cov:
+            c = min(cov, key=cov.get)
+            parts.append(f"{m} {c} {cov[c]:.2f}")
+    return f" Lowest held-out class: {', '.join(parts)}." if parts else ""
+
+
 def readme_text(summary: dict) -> str:
     lines = [
         "## Narrower 90 % intervals at the same coverage "
@@ -133,7 +146,8 @@ def readme_text(summary: dict) -> str:
             "scored class held out in turn, intervals calibrated on training "
             f"classes held out in turn): coverage LER {o['LER_covered']:.2f}, G "
             f"{o['G_covered']:.2f}, CCT {o['CCT_covered']:.2f}; mean width "
-            f"{widths}; out of range {o['out_of_range']}.",
+            f"{widths}; out of range {o['out_of_range']}."
+            + _lowest_class(u.get("by_class") or {}),
         ]
     return "\n".join(lines) + "\n"
 

@@ -63,6 +63,21 @@ def test_summary_pairs_widths_and_coverage_and_the_readme_says_so():
     )
 
 
+def test_unseen_line_names_the_least_covered_class():
+    by_class = {
+        "hps": {"LER_covered": 0.9, "G_covered": 0.5, "CCT_covered": None},
+        "lps": {"LER_covered": 0.7, "G_covered": 1.0, "CCT_covered": None},
+    }
+    overall = {"LER_covered": 0.8, "G_covered": 0.75, "CCT_covered": 1.0,
+               "LER_width": 120.0, "out_of_range": 0}  # fmt: skip
+    text = ei.readme_text(
+        {"partitions": 1, "offset_grid": [0.0], "rows": [], "paired": [],
+         "unseen_types": {"x-loco": {"overall": overall, "by_class": by_class}}}
+    )  # fmt: skip
+    assert "mean width LER 120 lm/W; out of range 0." in text
+    assert "Lowest held-out class: LER lps 0.70, G hps 0.50." in text
+
+
 def test_unseen_records_split_by_their_intervals():
     recs = []
     for tag, cov in (("narrowest", 0.5), ("offset 0", 1.0)):

@@ -335,6 +335,11 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             diagnostics={
                 "modelled_lamps": {"n_per_class": n, "added": added},
                 "mixtures": {"n": n_mix},
+                "interval_offset": dict(
+                    zip(("LER", "G", "CCT"), kw["interval_offsets"][-3:], strict=True)
+                )
+                if len(kw["interval_offsets"]) > 1
+                else {"LER": 0.0, "G": 0.0, "CCT": 0.0},
             },
         )
 
@@ -349,9 +354,9 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
     monkeypatch.setattr(inv_mod, "context_moon", lambda c: moon)
     ctx = _fake_context(case)
     ctx.table.n_lamps = len(lamps.ids)
-    for n, intervals, mix, sigma in (
-        (0, "known-types", 0, "joint"),
-        (4, "any-type", 50, "per-metric"),
+    for n, intervals, mix, sigma, unit in (
+        (0, "known-types", 0, "joint", "half-width"),
+        (4, "any-type", 50, "per-metric", "narrowest"),
     ):
         args = types.SimpleNamespace(
             estimator="inversion",
@@ -359,8 +364,16 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             intervals=intervals,
             mixtures=mix,
             sigma=sigma,
+            interval_unit=unit,
         )
         _, _, desc = _cmd_evaluate._fit(args, ctx, FIVE, "unknown")
+        want = inv_mod.INTERVAL_OFFSET_GRID if unit == "narrowest" else (0.0,)
+        assert seen["interval_offsets"] == want
+        if unit == "narrowest":  # the fake fit chose the grid's last three
+            assert "offset (x the metric's spread over the library lamps: LER " \
+                "0.1, G 0.3, CCT 1)" in desc
+        else:
+            assert desc.endswith("in units of the posterior's half-width")
         assert seen["sigma_rule"] == {"joint": "error"}.get(sigma, sigma)
         want = inv_mod.FLOOR_GRID if sigma == "per-metric" else (inv_mod.SIGMA_FLOOR,)
         assert seen["floor_grid"] == want
@@ -435,6 +448,11 @@ def test_evaluate_json_says_how_many_modelled_lamps(
     assert out["scene"]["intervals"] == "any-type"
     one = [0.03, inv_mod.SIGMA_FLOOR]
     assert out["sigma_rel"] == {"LER": one, "G": one, "CCT": one, "types_and_flag": one}
+    assert out["scene"]["interval_unit"] == {"LER": 0.0, "G": 0.0, "CCT": 0.0}
+    assert main([*argv, "--estimator", "ridge", "--interval-unit", "half-width"]) == 2
+    assert "--interval-unit half-width: for --estimator inversion only" in (
+        capsys.readouterr().err
+    )
     assert main([*argv, "--estimator", "ridge", "--sigma", "joint"]) == 2
     assert "--sigma joint: for --estimator inversion only" in capsys.readouterr().err
     assert main([*argv, "--intervals", "known-types"]) == 0

@@ -108,6 +108,18 @@ def register(subparsers):
         "for held-out classes; results/estimate_moon)",
     )
     p.add_argument(
+        "--interval-unit",
+        choices=tuple(INTERVAL_UNITS),
+        default="narrowest",
+        help="inversion only: the unit the conformal factor widens the "
+        "posterior's 5-95 %% range by. narrowest (default): the posterior's "
+        "half-width plus an offset, per metric the one of 0-1 x the metric's "
+        "spread over the library lamps whose calibrated intervals are narrowest "
+        "on the held-out lamps (same coverage there); half-width: the "
+        "posterior's half-width alone, as before (a broad posterior gets a very "
+        "wide interval). Same estimates either way (results/estimate_intervals)",
+    )
+    p.add_argument(
         "--surface",
         metavar="NAME|FILE",
         default=None,
@@ -132,6 +144,11 @@ SIGMA_RULES = {"per-metric": "per-metric", "joint": "error"}
 
 INTERVALS = {"known-types": "lamps", "any-type": "classes"}
 """`--intervals` choice -> `bandopt.inversion.fit_inversion(calibration=)`."""
+
+INTERVAL_UNITS = {"narrowest": "grid", "half-width": (0.0,)}
+"""`--interval-unit` choice -> `bandopt.inversion.fit_inversion(
+interval_offsets=)` ("grid": `INTERVAL_OFFSET_GRID`, not imported here: the
+parser is built without JAX)."""
 
 
 def read_reflectance(path, grid):
@@ -293,6 +310,11 @@ def _fit(args, ctx, bands, mode):
                 if args.sigma == "per-metric"
                 else (inv_mod.SIGMA_FLOOR,)
             ),
+            interval_offsets=(
+                inv_mod.INTERVAL_OFFSET_GRID
+                if INTERVAL_UNITS[args.interval_unit] == "grid"
+                else INTERVAL_UNITS[args.interval_unit]
+            ),
         )
         added = inv.diagnostics["modelled_lamps"]["added"]
         n_model = sum(added.values())
@@ -320,6 +342,7 @@ def _fit(args, ctx, bands, mode):
                 else "intervals split-conformal on library classes held out in "
                 "turn (calibrated for lamp types the library lacks too)"
             )
+            + f", in units of {_unit_text(inv)}"
         )
         return inv, basis, desc
     fit = fit_estimator if args.estimator == "ridge" else fit_kernel_estimator
@@ -332,6 +355,19 @@ def _fit(args, ctx, bands, mode):
         "lamps' |error| (split-conformal)"
     )
     return (est, q), None, desc
+
+
+def _unit_text(inv) -> str:
+    """The intervals' unit as the description says it: the posterior's
+    half-width, plus each metric's offset when one was chosen."""
+    chosen = inv.diagnostics.get("interval_offset") or {}
+    if not any(chosen.values()):
+        return "the posterior's half-width"
+    parts = ", ".join(f"{m} {f:g}" for m, f in chosen.items())
+    return (
+        "the posterior's half-width plus the narrowest calibrated offset (x the "
+        f"metric's spread over the library lamps: {parts})"
+    )
 
 
 def _sigma_text(inv) -> str:
@@ -348,6 +384,14 @@ def _sigma_text(inv) -> str:
         f"LER {one(ler)}, G {one(g)}, CCT {one(cct)} (each metric's own, "
         f"chosen on lamp-grouped folds; types and flag {one(joint)})"
     )
+
+
+def _unit_json(model) -> dict:
+    """`"interval_unit"` of the JSON: per metric the offset added to the
+    posterior's half-width, as a fraction of the metric's spread (0: the
+    half-width alone)."""
+    chosen = model.diagnostics.get("interval_offset")
+    return dict(chosen) if chosen else {m: 0.0 for m in ("LER", "G", "CCT")}
 
 
 def _sigma_json(model, estimator: str):
@@ -456,6 +500,11 @@ def run(args) -> int:
             f"--sigma {args.sigma}: for --estimator inversion only (got "
             f"--estimator {args.estimator})."
         )
+    if args.interval_unit != "narrowest" and args.estimator != "inversion":
+        raise ValueError(
+            f"--interval-unit {args.interval_unit}: for --estimator inversion only "
+            f"(got --estimator {args.estimator})."
+        )
     if args.intervals != "any-type" and args.estimator != "inversion":
         raise ValueError(
             f"--intervals {args.intervals}: for --estimator inversion only (got "
@@ -536,6 +585,9 @@ def run(args) -> int:
             "estimator_description": desc,
             "surface_knowledge": mode,
             "intervals": args.intervals if args.estimator == "inversion" else None,
+            "interval_unit": (
+                _unit_json(model) if args.estimator == "inversion" else None
+            ),
             "nir_policy": NIR_POLICY,
         },
         "lamps": rows,
