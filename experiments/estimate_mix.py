@@ -272,6 +272,36 @@ def oracle(ctx, bands) -> dict:
     return out
 
 
+def manifest_config(study: Study, partitions: int) -> dict:
+    """The manifest's `config` of a run of `study` over `partitions`."""
+    from bandopt import inversion as inv_mod
+
+    return {
+        "partitions": partitions,
+        "study": study.name,
+        "band_sets": {k: list(v) for k, v in study.band_sets.items()},
+        "estimators": list(study.estimators),
+        "mix_pairs_per_class": inv_mod.MIX_PAIRS,
+        "mix_fractions": list(inv_mod.MIX_FRACTIONS),
+        "floor_grid": list(inv_mod.FLOOR_GRID),
+        "sigma_grid": list(inv_mod.SIGMA_REL_GRID),
+        "unseen_types": [
+            {
+                "label": a,
+                "mixtures": b,
+                "interval_calibration": c,
+                "sigma_rule": d,
+                "interval_offsets": list(e[0]) if e else [0.0],
+            }
+            for a, b, c, d, *e in study.unseen
+        ],
+        "interval_offset_grid": list(inv_mod.INTERVAL_OFFSET_GRID),
+        "scored_lamps": "measured lamps only",
+        "training_lamps": "measured lamps and their same-class mixtures",
+        "modelled_lamps_used": False,
+    }
+
+
 def main(argv=None, study: Study | None = None) -> int:
     study = Study() if study is None else study
     ap = argparse.ArgumentParser(
@@ -380,6 +410,7 @@ def main(argv=None, study: Study | None = None) -> int:
         "mix_fractions": list(inv_mod.MIX_FRACTIONS),
         "floor_grid": list(inv_mod.FLOOR_GRID),
         "sigma_grid": list(inv_mod.SIGMA_REL_GRID),
+        "offset_grid": list(inv_mod.INTERVAL_OFFSET_GRID),
         "oracle": oracle(ctx0, rec_bands) if study.oracle else None,
         "rows": summ,
         "paired": paired,
@@ -396,23 +427,7 @@ def main(argv=None, study: Study | None = None) -> int:
     write_manifest(
         out,
         seed=0,
-        config={
-            "partitions": args.partitions,
-            "study": study.name,
-            "band_sets": {k: list(v) for k, v in study.band_sets.items()},
-            "estimators": list(study.estimators),
-            "mix_pairs_per_class": inv_mod.MIX_PAIRS,
-            "mix_fractions": list(inv_mod.MIX_FRACTIONS),
-            "floor_grid": list(inv_mod.FLOOR_GRID),
-            "sigma_grid": list(inv_mod.SIGMA_REL_GRID),
-            "unseen_types": [
-                {"label": a, "mixtures": b, "interval_calibration": c, "sigma_rule": d}
-                for a, b, c, d in study.unseen
-            ],
-            "scored_lamps": "measured lamps only",
-            "training_lamps": "measured lamps and their same-class mixtures",
-            "modelled_lamps_used": False,
-        },
+        config=manifest_config(study, args.partitions),
     )
     log(f"done: {out} ({time.time() - t0:.0f} s)")
     return 0

@@ -94,6 +94,19 @@ def test_unseen_records_split_by_their_intervals():
     assert list(_by_intervals([{"a": 1}])) == [None]
 
 
+def test_manifest_lists_every_unseen_run_with_its_offsets():
+    from experiments.estimate_mix import Study, manifest_config
+
+    runs = manifest_config(ei.STUDY, 4)["unseen_types"]
+    assert runs == [
+        {"label": f"{ei.NARROW}-loco", "mixtures": None,
+         "interval_calibration": "classes", "sigma_rule": "per-metric",
+         "interval_offsets": list(ei.GRID)}
+    ]  # fmt: skip
+    old = manifest_config(Study(), 4)["unseen_types"]  # four-field runs
+    assert {r["interval_offsets"] == [0.0] for r in old} == {True}
+
+
 def test_help_is_this_studys(capsys):
     with pytest.raises(SystemExit):
         ei.main(["--help"])
