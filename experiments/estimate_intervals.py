@@ -70,6 +70,34 @@ def _diff(p: dict, col: str, nd: int) -> str:
     return f"{v:+.{nd}f}" + ("" if sd is None else f" ± {sd:.{nd}f}")
 
 
+def coverage_by_width(records) -> dict:
+    """Recommended bands: held-out lamps grouped by the quartile of their
+    half-width intervals' mean width (per metric), the mean coverage under
+    each unit per quartile (narrowest posteriors first): whether the
+    narrowest unit moves the misses onto broad posteriors."""
+
+    def by_lamp(est: str) -> dict:
+        return {
+            (r["partition"], r["fold"], r["lamp"]): r
+            for r in records
+            if r["band_set"] == "recommended" and r["estimator"] == est
+        }
+
+    base, narrow = by_lamp(BASE), by_lamp(NARROW)
+    out = {}
+    for m, _, _ in METRIC_UNITS:
+        ks = [k for k, r in base.items() if r.get(f"{m}_width") is not None]
+        if len(ks) < 4 or any(k not in narrow for k in ks):
+            continue
+        w = np.array([base[k][f"{m}_width"] for k in ks])
+        quart = np.minimum((np.argsort(np.argsort(w)) * 4) // len(ks), 3)
+        out[m] = {}
+        for unit, src in (("half-width", base), ("narrowest", narrow)):
+            cov = np.array([src[k][f"{m}_covered"] for k in ks])
+            out[m][unit] = [float(cov[quart == i].mean()) for i in range(4)]
+    return out
+
+
 def _lowest_class(by_class: dict) -> str:
     """' Lowest held-out class: ...' per metric (the class whose true values
     the intervals hold least often), or '' without classes."""
@@ -133,6 +161,22 @@ def readme_text(summary: dict) -> str:
             + " | ".join(_diff(p, f"{m}_covered", 2) for m, _, _ in METRIC_UNITS)
             + " |"
         )
+    by_width = (summary.get("extra") or {}).get("coverage_by_width") or {}
+    if by_width:
+        cells = "; ".join(
+            f"{m} "
+            + " → ".join(
+                "/".join(f"{x:.2f}" for x in v[unit])
+                for unit in ("half-width", "narrowest")
+            )
+            for m, v in by_width.items()
+        )
+        lines += [
+            "",
+            "Coverage of held-out lamps (recommended bands, per lamp, all "
+            "partitions) by quartile of their half-width intervals' width, "
+            f"narrowest posteriors first, half-width unit → narrowest: {cells}.",
+        ]
     for label, u in (summary.get("unseen_types") or {}).items():
         o = u["overall"]
         widths = ", ".join(
@@ -210,6 +254,7 @@ STUDY = Study(
     paired_columns=WIDTH_COLUMNS,
     figure=figure,
     figure_name="intervals.png",
+    extra=lambda records: {"coverage_by_width": coverage_by_width(records)},
 )
 """The study `main` runs (`experiments.estimate_mix.Study`)."""
 

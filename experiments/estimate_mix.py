@@ -192,6 +192,7 @@ class Study:
     paired_columns: tuple = ()
     figure: Callable[[dict, Path], None] | None = None
     figure_name: str = "errors.png"
+    extra: Callable[[list], dict] | None = None
 
 
 def figure(summary: dict, path: Path) -> None:
@@ -415,6 +416,7 @@ def main(argv=None, study: Study | None = None) -> int:
         "rows": summ,
         "paired": paired,
         "unseen_types": unseen,
+        "extra": study.extra(records) if study.extra else None,
         "bands": {"recommended": "results/search/recommended_bands.json"},
         "scored_lamps": "measured lamps only",
         "modelled_lamps_used": False,

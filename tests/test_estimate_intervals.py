@@ -63,6 +63,29 @@ def test_summary_pairs_widths_and_coverage_and_the_readme_says_so():
     )
 
 
+def test_coverage_by_quartile_of_the_half_width_intervals_width():
+    """8 lamps: the two with the narrowest half-width intervals form the first
+    quartile, whatever each unit's own widths; other band sets are ignored."""
+    recs = []
+    for i, w in enumerate((50, 10, 80, 20, 70, 30, 60, 40)):
+        for est, cov in ((ei.BASE, 1.0), (ei.NARROW, 0.0 if w <= 20 else 0.5)):
+            recs.append(
+                {"band_set": "recommended", "estimator": est, "partition": 0,
+                 "fold": 0, "lamp": f"l{i}", "LER_width": w if est == ei.BASE
+                 else 1.0, "LER_covered": cov}
+            )  # fmt: skip
+    recs.append({**recs[0], "band_set": "sdgsat-1", "LER_covered": 0.0})
+    out = ei.coverage_by_width(recs)
+    assert out == {
+        "LER": {"half-width": [1.0] * 4, "narrowest": [0.0, 0.5, 0.5, 0.5]}
+    }
+    text = ei.readme_text(
+        {"partitions": 1, "offset_grid": [0.0], "rows": [], "paired": [],
+         "unseen_types": {}, "extra": {"coverage_by_width": out}}
+    )  # fmt: skip
+    assert "LER 1.00/1.00/1.00/1.00 → 0.00/0.50/0.50/0.50." in text
+
+
 def test_unseen_line_names_the_least_covered_class():
     by_class = {
         "hps": {"LER_covered": 0.9, "G_covered": 0.5, "CCT_covered": None},
