@@ -634,6 +634,7 @@ def _by_class(recs):
             "LER_width",
             "G_width",
             "CCT_width",
+            "CCT_width_mired",
             "level1_correct",
             "unexplained",
         ):
@@ -661,6 +662,7 @@ def _overall(recs):
         "LER_width",
         "G_width",
         "CCT_width",
+        "CCT_width_mired",
         "level1_correct",
         "unexplained",
     ):

@@ -180,10 +180,12 @@ def readme_text(summary: dict) -> str:
     for label, u in (summary.get("unseen_types") or {}).items():
         o = u["overall"]
         widths = ", ".join(
-            f"{m} {o[f'{m}_width']:.{nd}f} {unit}"
+            f"{m} {o[f'{m}_width']:.{nd}f}" + ("" if unit == "1" else f" {unit}")
             for m, unit, nd in METRIC_UNITS
             if o.get(f"{m}_width") is not None
         )
+        if o.get("CCT_width_mired") is not None:
+            widths += f" ({o['CCT_width_mired']:.0f} mired)"
         lines += [
             "",
             f"Unseen lamp types (recommended bands, `{label}`; partition 0, each "

@@ -76,9 +76,7 @@ def test_coverage_by_quartile_of_the_half_width_intervals_width():
             )  # fmt: skip
     recs.append({**recs[0], "band_set": "sdgsat-1", "LER_covered": 0.0})
     out = ei.coverage_by_width(recs)
-    assert out == {
-        "LER": {"half-width": [1.0] * 4, "narrowest": [0.0, 0.5, 0.5, 0.5]}
-    }
+    assert out == {"LER": {"half-width": [1.0] * 4, "narrowest": [0.0, 0.5, 0.5, 0.5]}}
     text = ei.readme_text(
         {"partitions": 1, "offset_grid": [0.0], "rows": [], "paired": [],
          "unseen_types": {}, "extra": {"coverage_by_width": out}}
@@ -98,6 +96,12 @@ def test_unseen_line_names_the_least_covered_class():
          "unseen_types": {"x-loco": {"overall": overall, "by_class": by_class}}}
     )  # fmt: skip
     assert "mean width LER 120 lm/W; out of range 0." in text
+    overall.update(G_width=2.5, CCT_width=900.0, CCT_width_mired=80.0)
+    text = ei.readme_text(
+        {"partitions": 1, "offset_grid": [0.0], "rows": [], "paired": [],
+         "unseen_types": {"x-loco": {"overall": overall, "by_class": by_class}}}
+    )  # fmt: skip
+    assert "LER 120 lm/W, G 2.500, CCT 900 K (80 mired); out of" in text
     assert "Lowest held-out class: LER lps 0.70, G hps 0.50." in text
 
 
@@ -134,3 +138,18 @@ def test_help_is_this_studys(capsys):
     with pytest.raises(SystemExit):
         ei.main(["--help"])
     assert "Narrower 90 % intervals" in capsys.readouterr().out
+
+
+def test_committed_section_is_generated_from_the_committed_summary():
+    import json
+    from pathlib import Path
+
+    results = Path(__file__).resolve().parents[1] / "results"
+    summary = json.loads((results / "estimate_intervals" / "summary.json").read_text())
+    readme = (results / "README.md").read_text()
+    start, end = "<!-- estimate-intervals:start -->", "<!-- estimate-intervals:end -->"
+    section = readme[readme.index(start) + len(start) : readme.index(end)]
+    assert section.strip() == ei.readme_text(summary).strip()
+    assert summary["offset_grid"] == list(ei.GRID)
+    assert summary["scored_lamps"] == "measured lamps only"
+    assert summary["modelled_lamps_used"] is False
