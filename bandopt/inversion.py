@@ -548,6 +548,14 @@ def _score_chunk_shared(y, p, qq, log_ps, log_pk, noise, moon_b=None, all_known=
     return jnp.moveaxis(lk, 0, 1), jnp.moveaxis(chi, 0, 1)
 
 
+@jax.jit
+def _normalise(lk):
+    """Log normaliser (..., 1) and posterior (..., k) of log weights `lk`
+    (..., k), compiled (one fused pass instead of numpy's three)."""
+    norm = logsumexp(lk, axis=-1, keepdims=True)
+    return norm, jnp.exp(lk - norm)
+
+
 def log_evidence(log_norm, y, sigmas, floors=None) -> np.ndarray:
     """Log marginal likelihood of each pixel's band radiances `y (n, b)`,
     normalised by their mean |y|, under the prior, per `σ_rel` in `sigmas`
@@ -723,10 +731,40 @@ def _weighted_quantile(values, weights, qs):
     )
 
 
+METRIC_ROWS = 1024
+"""Most posterior rows `_posterior_metrics` summarises per compiled call
+(fewer rows are padded to a power of two, more to a multiple of this: a few
+shapes compile, and memory stays bounded)."""
+
+
+@jax.jit
+def _metric_summary(post, vals, okf, order, qs):
+    """Per metric row of `vals`, `okf` (validity as 0/1), `order` (M, k): the
+    mean (n, M) and the weighted quantiles `qs` (n, M, Q) of the prior's valid
+    values under the posterior `post` (n, k), renormalised over the valid
+    entries. `order` sorts each row's invalid entries first (zero weight, so
+    they never hold a quantile: the first entry whose cumulative weight reaches
+    q has weight > 0), then its values; `_weighted_quantile`'s rule."""
+
+    def one(v, ok, o):
+        w = post * ok[None]
+        w = w / jnp.maximum(w.sum(axis=1, keepdims=True), 1e-300)
+        mean = jnp.matmul(w, v, precision=jax.lax.Precision.HIGHEST)
+        c = jnp.cumsum(w[:, o], axis=1)
+        c = c / jnp.maximum(c[:, -1:], 1e-300)
+        idx = jnp.minimum(jnp.sum(c[:, :, None] < qs[None, None], axis=1), v.size - 1)
+        return mean, v[o][idx]
+
+    return jax.vmap(one, out_axes=(1, 1))(vals, okf, order)
+
+
 def _posterior_metrics(post, prior: LampPrior, metrics=(0, 1, 2)):
     """Posterior mean and 5-95 % range in model space (CCT as mired), and
     P(CCT meaningful). post (n, k) sums to 1 per row. Only the columns of
-    `metrics` (indices into `METRICS`) are computed; the others are NaN."""
+    `metrics` (indices into `METRICS`) are computed; the others are NaN.
+    Compiled (`_metric_summary`, `METRIC_ROWS` rows per call): the same
+    numbers as `_weighted_quantile` on each metric's valid entries."""
+    post = np.asarray(post, float)
     t = prior.truth.copy()
     t[:, 2] = np.where(
         prior.valid[:, 2], MIRED / np.where(prior.valid[:, 2], t[:, 2], 1), 0
@@ -736,17 +774,23 @@ def _posterior_metrics(post, prior: LampPrior, metrics=(0, 1, 2)):
     rng = np.full((n, 3, 2), np.nan)
     p_cct = post @ prior.valid[:, 2].astype(float)
     lo_q, hi_q = (1 - COVERAGE) / 2, 1 - (1 - COVERAGE) / 2
-    for m in metrics:
-        ok = prior.valid[:, m]
-        w = post * ok[None]
-        s = np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
-        w = w / s
-        vals = np.where(ok, t[:, m], 0.0)
-        mean[:, m] = w @ vals
-        if ok.any():
-            rng[:, m] = _weighted_quantile(vals[ok], w[:, ok], (lo_q, hi_q))
-        else:
-            rng[:, m] = np.nan
+    ms = [m for m in metrics if prior.valid[:, m].any()]
+    if not ms or n == 0:
+        return mean, rng, p_cct
+    ok = prior.valid[:, ms].T  # (M, k)
+    vals = np.where(ok, t[:, ms].T, 0.0)
+    order = np.stack([np.lexsort((v, o)) for v, o in zip(vals, ok, strict=True)])
+    qs = jnp.asarray([lo_q, hi_q])
+    # a few compiled shapes: powers of two up to METRIC_ROWS, then chunks
+    step = min(METRIC_ROWS, 1 << max(3, (n - 1).bit_length()))
+    rows = -(-n // step) * step
+    padded = np.concatenate([post, np.zeros((rows - n, post.shape[1]))])
+    parts = [
+        _metric_summary(padded[i : i + step], vals, ok.astype(float), order, qs)
+        for i in range(0, rows, step)
+    ]
+    mean[:, ms] = np.concatenate([np.asarray(p[0]) for p in parts])[:n]
+    rng[:, ms] = np.concatenate([np.asarray(p[1]) for p in parts])[:n]
     return mean, rng, p_cct
 
 
@@ -1167,8 +1211,7 @@ class Inversion:
         )
         noise = np.column_stack([np.asarray(sig, float), fl])
         lk, chi = _score(y, cand, lps, a, q, self.prior.log_prior, noise, moon)
-        norm = logsumexp(lk, axis=-1, keepdims=True)
-        post = np.exp(lk - norm)
+        norm, post = (np.asarray(x) for x in _normalise(jnp.asarray(lk)))
         dof = np.full(y.shape[0], max(self._dof(), 1), float)
         if moon is not None:  # a known Moon amplitude is not a fitted parameter
             known = np.isfinite(np.asarray(moon, float))

@@ -174,3 +174,49 @@ def test_cross_validate_scores_both_intervals_from_one_fit(case, monkeypatch):
     for a, b in zip(by[base], by[narrow], strict=True):
         assert (a["lamp"], a["LER"], a["G"]) == (b["lamp"], b["LER"], b["G"])
         assert {"LER_width", "G_width", "LER_covered"} <= set(b)
+
+
+def _reference_metrics(post, prior, m):
+    """The rule `_posterior_metrics` compiles, in plain numpy: the mean and
+    5-95 % weighted quantiles of metric m's valid prior values."""
+    t = prior.truth[:, m].copy()
+    ok = prior.valid[:, m]
+    if m == 2:
+        t = np.where(ok, inv_mod.MIRED / np.where(ok, t, 1.0), 0.0)
+    w = post * ok[None]
+    w = w / np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
+    vals = np.where(ok, t, 0.0)
+    q = inv_mod._weighted_quantile(vals[ok], w[:, ok], (0.05, 0.95))
+    return w @ vals, q
+
+
+@pytest.mark.parametrize("rows", [1, 37])
+def test_compiled_posterior_summary_is_the_weighted_quantile_rule(rows, monkeypatch):
+    """Random posteriors (sharp and flat, one with no valid mass) over a prior
+    with invalid entries and tied values; more rows than a compiled call
+    takes (`METRIC_ROWS` patched to 16: padding and chunks)."""
+    monkeypatch.setattr(inv_mod, "METRIC_ROWS", 16)
+    rng = np.random.default_rng(3)
+    k = 29
+    truth = np.column_stack(
+        [rng.choice([80.0, 120.0, 300.0], k), rng.normal(0, 1, k),
+         rng.uniform(1800, 6500, k)]
+    )  # fmt: skip
+    valid = rng.random((k, 3)) > 0.25
+    ids = tuple(f"l{i}" for i in range(k))
+    prior = inv_mod.LampPrior(
+        ids, np.zeros((k, 2)), ids, ids, truth, valid, np.zeros(k)
+    )
+    lk = rng.normal(0, 1, (rows, k)) * rng.choice([0.1, 10.0], (rows, 1))
+    post = np.exp(lk - lk.max(axis=1, keepdims=True))
+    post /= post.sum(axis=1, keepdims=True)
+    post[0] = np.where(valid[:, 0], 0.0, 1.0 / (~valid[:, 0]).sum())  # no valid mass
+    mean, rng_, p_cct = inv_mod._posterior_metrics(post, prior)
+    for m in range(3):
+        want_mean, want_q = _reference_metrics(post, prior, m)
+        np.testing.assert_allclose(mean[:, m], want_mean, rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(rng_[:, m], want_q)
+    np.testing.assert_allclose(p_cct, post @ valid[:, 2])
+    only_g, rng_g, _ = inv_mod._posterior_metrics(post, prior, metrics=(1,))
+    assert np.isnan(only_g[:, [0, 2]]).all()
+    np.testing.assert_array_equal(rng_g[:, 1], rng_[:, 1])
