@@ -38,7 +38,7 @@ BASE, NARROW = "inversion-moon-mix-metric", "inversion-moon-mix-metric-narrow"
 """The same fit, its intervals in units of the posterior's half-width, and
 in units of half-width plus the narrowest calibrated offset."""
 
-GRID = (0.0, 0.01, 0.03, 0.1, 0.3, 1.0)
+GRID = (0.0, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0)
 """`bandopt.inversion.INTERVAL_OFFSET_GRID` (checked by the tests; named here
 so `--help` needs no JAX)."""
 

@@ -371,7 +371,7 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
         assert seen["interval_offsets"] == want
         if unit == "narrowest":  # the fake fit chose the grid's last three
             assert "offset (x the metric's spread over the library lamps: LER " \
-                "0.1, G 0.3, CCT 1)" in desc
+                "1, G 3, CCT 10)" in desc
         else:
             assert desc.endswith("in units of the posterior's half-width")
         assert seen["sigma_rule"] == {"joint": "error"}.get(sigma, sigma)

@@ -113,7 +113,7 @@ def register(subparsers):
         default="narrowest",
         help="inversion only: the unit the conformal factor widens the "
         "posterior's 5-95 %% range by. narrowest (default): the posterior's "
-        "half-width plus an offset, per metric the one of 0-1 x the metric's "
+        "half-width plus an offset, per metric the one of 0-10 x the metric's "
         "spread over the library lamps whose calibrated intervals are narrowest "
         "on the held-out lamps (same coverage there); half-width: the "
         "posterior's half-width alone, as before (a broad posterior gets a very "
