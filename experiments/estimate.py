@@ -439,10 +439,11 @@ def _fmt(r, m, digits):
     return f"{v:.{digits}f} ± {sd:.{digits}f}" if sd is not None else f"{v:.{digits}f}"
 
 
-def diff_cells(p: dict) -> list[str]:
-    """Table cells `mean ± SD` of a paired row's LER, G and CCT differences."""
+def diff_cells(p: dict, columns=(("LER", 1), ("G", 3), ("CCT", 0))) -> list[str]:
+    """Table cells `mean ± SD` of a paired row's differences of `columns`
+    ((summary column, decimals); default LER, G and CCT)."""
     cells = []
-    for m, d in (("LER", 1), ("G", 3), ("CCT", 0)):
+    for m, d in columns:
         v, sd = p.get(f"{m}_diff"), p.get(f"{m}_diff_sd")
         cells.append("n/a" if v is None else f"{v:+.{d}f} ± {(sd or 0):.{d}f}")
     return cells

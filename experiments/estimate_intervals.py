@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from experiments.estimate import _fmt, diff_cells
 from experiments.estimate_mix import Study, main as _run
 
 
@@ -54,20 +55,6 @@ WIDTH_COLUMNS = (
 """Summary columns compared by partition, narrow minus half-width unit."""
 
 METRIC_UNITS = (("LER", "lm/W", 0), ("G", "1", 3), ("CCT", "K", 0))
-
-
-def _pm(r: dict, col: str, nd: int) -> str:
-    v, sd = r.get(col), r.get(f"{col}_sd")
-    if v is None:
-        return "n/a"
-    return f"{v:.{nd}f}" + ("" if sd is None else f" ± {sd:.{nd}f}")
-
-
-def _diff(p: dict, col: str, nd: int) -> str:
-    v, sd = p.get(f"{col}_diff"), p.get(f"{col}_diff_sd")
-    if v is None:
-        return "n/a"
-    return f"{v:+.{nd}f}" + ("" if sd is None else f" ± {sd:.{nd}f}")
 
 
 def coverage_by_width(records) -> dict:
@@ -140,7 +127,7 @@ def readme_text(summary: dict) -> str:
         )
         lines.append(
             f"| {r['band_set']} | {r['estimator']} | {cov} | "
-            + " | ".join(_pm(r, f"{m}_width", nd) for m, _, nd in METRIC_UNITS)
+            + " | ".join(_fmt(r, f"{m}_width", nd) for m, _, nd in METRIC_UNITS)
             + " |"
         )
     lines += [
@@ -156,9 +143,13 @@ def readme_text(summary: dict) -> str:
             continue
         lines.append(
             f"| {p['band_set']} | "
-            + " | ".join(_diff(p, f"{m}_width", nd) for m, _, nd in METRIC_UNITS)
+            + " | ".join(
+                diff_cells(p, [(f"{m}_width", nd) for m, _, nd in METRIC_UNITS])
+            )
             + " | "
-            + " | ".join(_diff(p, f"{m}_covered", 2) for m, _, _ in METRIC_UNITS)
+            + " | ".join(
+                diff_cells(p, [(f"{m}_covered", 2) for m, _, _ in METRIC_UNITS])
+            )
             + " |"
         )
     by_width = (summary.get("extra") or {}).get("coverage_by_width") or {}
