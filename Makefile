@@ -10,7 +10,7 @@ SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: run test test-slow lint bench atmospheres surfaces library lamp-models ler \
         g cct sweep compare classify classify-partitions radiometry spatial \
-        noise-aware estimate estimate-moon estimate-mix estimate-noise estimate-intervals unseen-ceiling \
+        noise-aware estimate estimate-moon estimate-mix estimate-noise estimate-intervals estimate-shift unseen-ceiling \
         before-after report check-report docs tutorial clean
 
 $(STAMP): pyproject.toml requirements.lock
@@ -83,6 +83,9 @@ estimate-noise: $(STAMP)  ## a band-error model (sigma_rel, floor) per metric vs
 
 estimate-intervals: $(STAMP)  ## 90 % intervals in units of the posterior half-width vs half-width + the narrowest calibrated offset (one fit, same estimates), our bands and the two best reference sensors, 4 lamp partitions, paired; unseen types (resumable: ARGS=--resume)
 	$(BIN)/python -m experiments.estimate_intervals $(ARGS)
+
+estimate-shift: $(STAMP)  ## evaluate's estimator without vs with wavelength-shifted copies of the prior's direct-emission LEDs, our bands and the two best reference sensors, 4 lamp partitions, paired; per class; unseen types (resumable: ARGS=--resume)
+	$(BIN)/python -m experiments.estimate_shift $(ARGS)
 
 unseen-ceiling: $(STAMP)  ## the level-1 family of unseen lamp types from bare lamp spectra (5-50 nm) and the recommended bands, classifiers trained on the other classes: the ceiling of issue 12's 90 % goal (under a minute)
 	$(BIN)/python -m experiments.unseen_ceiling $(ARGS)

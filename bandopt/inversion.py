@@ -951,6 +951,80 @@ def mixture_lamps(
     return LampSet(tuple(ids), spectra, tuple(level1), tuple(level2))
 
 
+PEAK_SHIFTS_NM = (-10.0, -7.5, -5.0, -2.5, 2.5, 5.0, 7.5, 10.0)
+"""Wavelength shifts of direct-emission LEDs in a prior (`shifted_lamps`,
+`fit_inversion(peak_shifts=)`): a semiconductor LED's emission band sits
+where its composition puts it and moves with junction temperature, so a
+new LED of a type usually has its band a few nm from every library LED's
+(the library's 4 direct amber LEDs peak at 594-605 nm). ±10 nm in 2.5 nm
+steps: a shifted copy then lies within 1.25 nm of any peak within 10 nm of
+a training LED's; beyond that the prior does not reach (chosen, not fitted
+to any score)."""
+
+DIRECT_LED_MAX_FWHM_NM = 40.0
+"""Widest single emission band (half-maximum width, visible part) that
+`shifted_lamps` treats as a direct-emission LED. A semiconductor's band is
+~15-30 nm wide in the visible (the library's direct amber LEDs: 12-20 nm);
+phosphor bands are wider (the library's phosphor-converted amber LEDs:
+55-100 nm), and their position is set by the phosphor, not shifted with a
+junction, so they are not shifted."""
+
+
+def direct_emitters(lamps: "LampSet", wavelength_nm) -> np.ndarray:
+    """Indices of `lamps` whose visible spectrum is one emission band
+    (`datasets.nir.is_single_band_emitter`) no wider than
+    `DIRECT_LED_MAX_FWHM_NM` at half maximum: direct-emission LEDs."""
+    from scipy.signal import peak_widths
+
+    from .datasets.nir import is_single_band_emitter
+
+    wl = np.asarray(wavelength_nm, float)
+    vis = wl <= 780.0
+    step = float(np.median(np.diff(wl[vis])))
+    out = []
+    for i, s in enumerate(lamps.spectra):
+        sv = np.nan_to_num(s[vis])
+        if not is_single_band_emitter(wl[vis], sv):
+            continue
+        pk = int(np.argmax(sv))
+        width = peak_widths(sv, [pk], rel_height=0.5)[0][0] * step
+        if width <= DIRECT_LED_MAX_FWHM_NM:
+            out.append(i)
+    return np.asarray(out, int)
+
+
+def shifted_lamps(
+    lamps: "LampSet", wavelength_nm, shifts: Sequence[float] = PEAK_SHIFTS_NM
+) -> "LampSet":
+    """Copies of the direct-emission LEDs of `lamps` (`direct_emitters`)
+    with their spectrum moved by each of `shifts` [nm], `S'(λ) = S(λ - δ)`
+    (linear interpolation; the edge value beyond the grid), renormalised to
+    one lumen like the lamps (`bandopt.photometry.ler` times the radiant
+    power 380-780 nm), labelled with the lamp's classes. Their LER, G and
+    CCT are computed from the shifted spectra like any prior lamp's, so they
+    are physical by construction. Ids `shift:<id>@<δ>nm`. Built from the
+    prior's own lamps only, like `mixture_lamps`."""
+    from .photometry import ler
+
+    sh = tuple(float(x) for x in shifts)
+    if any(x == 0 or not math.isfinite(x) for x in sh) or len(set(sh)) != len(sh):
+        raise ValueError(f"peak shifts {sh}: need distinct finite non-zero values.")
+    wl = np.asarray(wavelength_nm, float)
+    idx = direct_emitters(lamps, wl) if sh else np.zeros(0, int)
+    if idx.size == 0:
+        return LampSet((), np.zeros((0, lamps.spectra.shape[1])), (), ())
+    rows = np.array(
+        [np.interp(wl - d, wl, lamps.spectra[i]) for i in idx for d in sh]
+    )
+    vis = wl <= 780.0
+    lum = np.asarray(ler(rows, wl)) * np.trapezoid(rows[:, vis], wl[vis], axis=1)
+    rows = rows / lum[:, None]
+    ids = tuple(f"shift:{lamps.ids[i]}@{d:+g}nm" for i in idx for d in sh)
+    l1 = tuple(lamps.level1[i] for i in idx for _ in sh)
+    l2 = tuple(lamps.level2[i] for i in idx for _ in sh)
+    return LampSet(ids, rows, l1, l2)
+
+
 def modelled_lamps(
     train_ids: Sequence[str],
     wavelength_nm,
@@ -1421,6 +1495,7 @@ def fit_inversion(
     calibration: str = "lamps",
     mixtures: int = 0,
     interval_offsets: Sequence[float] = (0.0,),
+    peak_shifts: Sequence[float] = (),
 ) -> Inversion:
     """Fit an inversion on `train_lamps` (indices into `lamps`).
 
@@ -1529,8 +1604,11 @@ def fit_inversion(
 
     def make(prior_set: LampSet, noise, extra=None) -> Inversion:
         pset = prior_set if always is None else prior_set + always
+        measured = pset
         if mixtures:
-            pset = pset + mixture_lamps(pset, mixtures, seed=modelled_seed)
+            pset = pset + mixture_lamps(measured, mixtures, seed=modelled_seed)
+        if peak_shifts:
+            pset = pset + shifted_lamps(measured, grid, peak_shifts)
         pset = pset if extra is None else pset + extra
         return build_inversion(
             pset, weights, conditions, basis, surface_mode, noise[0], noise[1]
@@ -1692,6 +1770,10 @@ def fit_inversion(
                 "fractions": list(MIX_FRACTIONS) if mixtures else [],
                 "n": sum(i.startswith("mix:") for i in final.prior.ids),
             },
+            "peak_shifts": {
+                "shifts_nm": [float(x) for x in peak_shifts],
+                "n": sum(i.startswith("shift:") for i in final.prior.ids),
+            },
             "surface_mode": surface_mode,
             "modelled_lamps": {
                 **extra_info,
@@ -1821,6 +1903,11 @@ interval unit offset chosen for the narrowest calibrated intervals
 estimates, other intervals. Asked for together with `MIX_METRIC_ESTIMATOR`,
 both come from one fit (that one at offset 0, `Inversion.
 with_interval_offset`)."""
+
+SHIFT_ESTIMATOR = "inversion-moon-mix-metric-narrow-shift"
+"""`NARROW_ESTIMATOR` with wavelength-shifted copies of the prior's
+direct-emission LEDs in every prior (`fit_inversion(peak_shifts=
+PEAK_SHIFTS_NM)`, `shifted_lamps`)."""
 
 MODEL_NOISE_SEED_OFFSET = 15485863
 """Noise seed offset of modelled lamps' rows (a prime): with photon noise,
@@ -2142,11 +2229,12 @@ def cross_validate(
                 MIX_ESTIMATOR,
                 MIX_METRIC_ESTIMATOR,
                 NARROW_ESTIMATOR,
+                SHIFT_ESTIMATOR,
             ):
-                narrow = name == NARROW_ESTIMATOR
+                narrow = name in (NARROW_ESTIMATOR, SHIFT_ESTIMATOR)
                 if name == MIX_METRIC_ESTIMATOR and NARROW_ESTIMATOR in estimators:
                     continue  # scored from the narrow fit at offset 0
-                per = name in (MIX_METRIC_ESTIMATOR, NARROW_ESTIMATOR)
+                per = name in (MIX_METRIC_ESTIMATOR, NARROW_ESTIMATOR, SHIFT_ESTIMATOR)
                 mix = per or name == MIX_ESTIMATOR
                 told = mix or name in (MOON_ESTIMATOR, MOON_UNSEEN_ESTIMATOR)
                 moon_rows = context_moon(ctx) if told else None
@@ -2182,6 +2270,7 @@ def cross_validate(
                         mixtures=MIX_PAIRS if mix else 0,
                         floor_grid=FLOOR_GRID if per else (SIGMA_FLOOR,),
                         interval_offsets=INTERVAL_OFFSET_GRID if narrow else (0.0,),
+                        peak_shifts=PEAK_SHIFTS_NM if name == SHIFT_ESTIMATOR else (),
                     )
                     sub = (
                         None
@@ -2194,7 +2283,7 @@ def cross_validate(
                     )
                     moon_sub = None if moon_rows is None else moon_rows[rows]
                     preds[(name, mode)] = (inv.predict(rad[rows], sub, moon_sub), inv)
-                    if narrow and MIX_METRIC_ESTIMATOR in estimators:
+                    if name == NARROW_ESTIMATOR and MIX_METRIC_ESTIMATOR in estimators:
                         base = inv.with_interval_offset(0.0)
                         preds[(MIX_METRIC_ESTIMATOR, mode)] = (
                             base.predict(rad[rows], sub, moon_sub),
@@ -2240,7 +2329,8 @@ def cross_validate(
                     f"estimator {name!r}: expected one of "
                     f"{(*ESTIMATORS, *MODELLED_ESTIMATORS)} or "
                     f"{(EVIDENCE_ESTIMATOR, MOON_ESTIMATOR, MOON_UNSEEN_ESTIMATOR)}"
-                    f" or {(MIX_ESTIMATOR, MIX_METRIC_ESTIMATOR, NARROW_ESTIMATOR)}."
+                    f" or {(MIX_ESTIMATOR, MIX_METRIC_ESTIMATOR, NARROW_ESTIMATOR)}"
+                    f" or {SHIFT_ESTIMATOR!r}."
                 )
         for (name, mode), (p, inv) in preds.items():
             res = p if isinstance(p, InversionResult) else None
@@ -2336,6 +2426,12 @@ def _check_never_scored(inv, test_ids) -> None:
     if parts & set(test_ids):
         raise RuntimeError(
             f"mixtures of scored lamps in the prior: {sorted(parts & set(test_ids))}"
+        )
+    shifted = {i[6:].rsplit("@", 1)[0] for i in inv.prior.ids if i.startswith("shift:")}
+    if shifted & set(test_ids):
+        raise RuntimeError(
+            f"shifted copies of scored lamps in the prior: "
+            f"{sorted(shifted & set(test_ids))}"
         )
 
 
@@ -2512,6 +2608,7 @@ def leave_one_class_out(
     sigma_rule: str = "error",
     floor_grid: Sequence[float] = (SIGMA_FLOOR,),
     interval_offsets: Sequence[float] = (0.0,),
+    peak_shifts: Sequence[float] = (),
 ):
     """Unseen lamp types: for every scored level-2 class, fit on all other
     classes (inner folds: 2 class-stratified lamp folds of those) and score its
@@ -2534,7 +2631,9 @@ def leave_one_class_out(
     `fit_inversion`'s; with more than one offset (0 among them) every lamp
     gets two records from the one fit, `"intervals": "narrowest"` and
     `"offset 0"` (`Inversion.with_interval_offset(0)`), the same but for the
-    intervals."""
+    intervals. `peak_shifts`: wavelength-shifted copies of the prior's
+    direct-emission LEDs (`fit_inversion(peak_shifts=)`; never of the
+    held-out class's lamps, which are in no prior)."""
     two = len(interval_offsets) > 1
     if two and 0.0 not in [float(x) for x in interval_offsets]:
         raise ValueError(
@@ -2576,6 +2675,7 @@ def leave_one_class_out(
             sigma_rule=sigma_rule,
             floor_grid=floor_grid,
             interval_offsets=interval_offsets,
+            peak_shifts=peak_shifts,
         )
         _check_never_scored(inv, [lamps.ids[i] for i in test])
         if c in inv.diagnostics["modelled_lamps"]["added"]:

@@ -67,7 +67,19 @@ calibration (`fit_inversion(calibration=)`; "classes" with mixtures is what
 `bandopt evaluate` does by default) and `σ_rel` rule (`SIGMA_RULES`;
 "per-metric" also chooses the floor from `FLOOR_GRID`); optionally a fifth,
 the interval offsets (`fit_inversion(interval_offsets=)`; several: the
-offset-0 intervals of the same fit are reported too, as "LABEL (offset 0)")."""
+offset-0 intervals of the same fit are reported too, as "LABEL (offset 0)"),
+and a sixth, the peak shifts of direct-emission LEDs in every prior
+(`fit_inversion(peak_shifts=)`; default none)."""
+
+
+def unseen_options(run: tuple) -> tuple:
+    """An unseen-types run's (interval offsets, peak shifts), the optional
+    fifth and sixth fields (defaults `(0.0,)` and `()`)."""
+    rest = run[4:]
+    return (
+        tuple(rest[0]) if rest else (0.0,),
+        tuple(rest[1]) if len(rest) > 1 else (),
+    )
 
 
 def _by_intervals(recs) -> dict:
@@ -292,13 +304,23 @@ def manifest_config(study: Study, partitions: int) -> dict:
                 "mixtures": b,
                 "interval_calibration": c,
                 "sigma_rule": d,
-                "interval_offsets": list(e[0]) if e else [0.0],
+                "interval_offsets": list(unseen_options(run)[0]),
+                "peak_shifts_nm": list(unseen_options(run)[1]),
             }
-            for a, b, c, d, *e in study.unseen
+            for run in study.unseen
+            for a, b, c, d in [run[:4]]
         ],
+        "peak_shifts_nm": list(inv_mod.PEAK_SHIFTS_NM),
         "interval_offset_grid": list(inv_mod.INTERVAL_OFFSET_GRID),
         "scored_lamps": "measured lamps only",
-        "training_lamps": "measured lamps and their same-class mixtures",
+        "training_lamps": "measured lamps and their same-class mixtures"
+        + (
+            "; wavelength-shifted copies of direct-emission LEDs where the "
+            "estimator or unseen run says -shift"
+            if any("shift" in e for e in study.estimators)
+            or any(unseen_options(run)[1] for run in study.unseen)
+            else ""
+        ),
         "modelled_lamps_used": False,
     }
 
@@ -384,7 +406,9 @@ def main(argv=None, study: Study | None = None) -> int:
     rec_bands = band_set("recommended")
     unseen = {}
     if not args.no_unseen:
-        for label, mix, calibration, rule, *offsets in study.unseen:
+        for run in study.unseen:
+            label, mix, calibration, rule = run[:4]
+            offsets, shifts = unseen_options(run)
             recs = inv_mod.leave_one_class_out(
                 ctx0,
                 rec_bands,
@@ -397,7 +421,8 @@ def main(argv=None, study: Study | None = None) -> int:
                     if rule == "per-metric"
                     else (inv_mod.SIGMA_FLOOR,)
                 ),
-                interval_offsets=offsets[0] if offsets else (0.0,),
+                interval_offsets=offsets,
+                peak_shifts=shifts,
             )
             for tag, rs in _by_intervals(recs).items():
                 key = label if tag in (None, "narrowest") else f"{label} ({tag})"
@@ -412,6 +437,7 @@ def main(argv=None, study: Study | None = None) -> int:
         "floor_grid": list(inv_mod.FLOOR_GRID),
         "sigma_grid": list(inv_mod.SIGMA_REL_GRID),
         "offset_grid": list(inv_mod.INTERVAL_OFFSET_GRID),
+        "peak_shifts_nm": list(inv_mod.PEAK_SHIFTS_NM),
         "oracle": oracle(ctx0, rec_bands) if study.oracle else None,
         "rows": summ,
         "paired": paired,
