@@ -324,6 +324,7 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
         return types.SimpleNamespace(
             prior=types.SimpleNamespace(
                 ids=("a", "b", "c") + ("m",) * n + ("mix:a+b@0.5",) * n_mix
+                + ("shift:a@+5nm",) * 4 * len(kw["peak_shifts"])
             ),
             sigma_rel=0.03,
             sigma_floor=0.001,
@@ -335,6 +336,10 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             diagnostics={
                 "modelled_lamps": {"n_per_class": n, "added": added},
                 "mixtures": {"n": n_mix},
+                "peak_shifts": {
+                    "n": 4 * len(kw["peak_shifts"]),
+                    "shifts_nm": list(kw["peak_shifts"]),
+                },
                 "interval_offset": dict(
                     zip(("LER", "G", "CCT"), kw["interval_offsets"][-3:], strict=True)
                 )
@@ -354,9 +359,9 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
     monkeypatch.setattr(inv_mod, "context_moon", lambda c: moon)
     ctx = _fake_context(case)
     ctx.table.n_lamps = len(lamps.ids)
-    for n, intervals, mix, sigma, unit in (
-        (0, "known-types", 0, "joint", "half-width"),
-        (4, "any-type", 50, "per-metric", "narrowest"),
+    for n, intervals, mix, sigma, unit, shifts in (
+        (0, "known-types", 0, "joint", "half-width", "off"),
+        (4, "any-type", 50, "per-metric", "narrowest", "on"),
     ):
         args = types.SimpleNamespace(
             estimator="inversion",
@@ -365,6 +370,7 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             mixtures=mix,
             sigma=sigma,
             interval_unit=unit,
+            peak_shifts=shifts,
         )
         _, _, desc = _cmd_evaluate._fit(args, ctx, FIVE, "unknown")
         want = inv_mod.INTERVAL_OFFSET_GRID if unit == "narrowest" else (0.0,)
@@ -386,6 +392,10 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             )
         assert seen["modelled_per_class"] == n
         assert seen["mixtures"] == mix
+        want = inv_mod.PEAK_SHIFTS_NM if shifts == "on" else ()
+        assert tuple(seen["peak_shifts"]) == want
+        assert ("32 copies of its direct-emission LEDs shifted by -10, -7.5, -5, "
+                "-2.5, +2.5, +5, +7.5, +10 nm" in desc) == (shifts == "on")  # fmt: skip
         assert ("with 6 pairwise blends of two measured lamps" in desc) == bool(mix)
         assert seen["row_moon"] is moon  # told the Moon, not fitted
         want = {"known-types": "lamps", "any-type": "classes"}[intervals]
@@ -451,6 +461,12 @@ def test_evaluate_json_says_how_many_modelled_lamps(
     assert out["scene"]["interval_unit"] == {"LER": 0.0, "G": 0.0, "CCT": 0.0}
     assert main([*argv, "--estimator", "ridge", "--interval-unit", "half-width"]) == 2
     assert "--interval-unit half-width: for --estimator inversion only" in (
+        capsys.readouterr().err
+    )
+    assert out["peak_shifts_nm"] == []  # a prior built without a fit
+    other = "off" if _cmd_evaluate.PEAK_SHIFTS_DEFAULT == "on" else "on"
+    assert main([*argv, "--estimator", "ridge", "--peak-shifts", other]) == 2
+    assert f"--peak-shifts {other}: shifted LEDs go into the prior of" in (
         capsys.readouterr().err
     )
     assert main([*argv, "--estimator", "ridge", "--sigma", "joint"]) == 2

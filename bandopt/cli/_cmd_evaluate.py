@@ -83,6 +83,17 @@ def register(subparsers):
         "(results/estimate_mix)",
     )
     p.add_argument(
+        "--peak-shifts",
+        choices=tuple(PEAK_SHIFTS),
+        default=PEAK_SHIFTS_DEFAULT,
+        help="inversion only: also put copies of the library's direct-emission "
+        "LEDs (one visible band at most 40 nm wide: the direct amber LEDs) "
+        "shifted by +-2.5 to +-10 nm into the prior, so a new LED whose band "
+        "lies between or beyond the library's is represented; their LER, G and "
+        f"CCT are computed from the shifted spectra (default {PEAK_SHIFTS_DEFAULT}; "
+        "results/estimate_shift)",
+    )
+    p.add_argument(
         "--sigma",
         choices=tuple(SIGMA_RULES),
         default="per-metric",
@@ -138,6 +149,14 @@ def register(subparsers):
 MIXTURES_DEFAULT = 50
 """Default of `--mixtures`: `bandopt.inversion.MIX_PAIRS` (not imported here:
 the parser is built without JAX)."""
+
+PEAK_SHIFTS = {"on": "grid", "off": ()}
+"""`--peak-shifts` choice -> `bandopt.inversion.fit_inversion(peak_shifts=)`
+("grid": `PEAK_SHIFTS_NM`, not imported here: the parser is built without
+JAX)."""
+
+PEAK_SHIFTS_DEFAULT = "off"
+"""Default of `--peak-shifts` (see `results/estimate_shift/`)."""
 
 SIGMA_RULES = {"per-metric": "per-metric", "joint": "error"}
 """`--sigma` choice -> `bandopt.inversion.fit_inversion(sigma_rule=)`."""
@@ -315,11 +334,18 @@ def _fit(args, ctx, bands, mode):
                 if INTERVAL_UNITS[args.interval_unit] == "grid"
                 else INTERVAL_UNITS[args.interval_unit]
             ),
+            peak_shifts=(
+                inv_mod.PEAK_SHIFTS_NM
+                if PEAK_SHIFTS[args.peak_shifts] == "grid"
+                else PEAK_SHIFTS[args.peak_shifts]
+            ),
         )
         added = inv.diagnostics["modelled_lamps"]["added"]
         n_model = sum(added.values())
         n_mix = inv.diagnostics["mixtures"]["n"]
-        prior = f"{len(inv.prior.ids) - n_model - n_mix} measured library lamps"
+        shifted = inv.diagnostics["peak_shifts"]
+        n_measured = len(inv.prior.ids) - n_model - n_mix - shifted["n"]
+        prior = f"{n_measured} measured library lamps"
         if n_model:
             prior += (
                 f" and {n_model} modelled lamps ({args.modelled_per_class} per class "
@@ -330,6 +356,11 @@ def _fit(args, ctx, bands, mode):
             prior += (
                 f", with {n_mix} pairwise blends of two measured lamps of one "
                 f"class (up to {args.mixtures} pairs per class)"
+            )
+        if shifted["n"]:
+            prior += (
+                f", and {shifted['n']} copies of its direct-emission LEDs shifted "
+                f"by {', '.join(f'{x:+g}' for x in shifted['shifts_nm'])} nm"
             )
         desc = (
             f"physics-based inversion (bandopt.inversion), prior over {prior}, "
@@ -505,6 +536,11 @@ def run(args) -> int:
             f"--interval-unit {args.interval_unit}: for --estimator inversion only "
             f"(got --estimator {args.estimator})."
         )
+    if args.peak_shifts != PEAK_SHIFTS_DEFAULT and args.estimator != "inversion":
+        raise ValueError(
+            f"--peak-shifts {args.peak_shifts}: shifted LEDs go into the prior of "
+            f"--estimator inversion only (got --estimator {args.estimator})."
+        )
     if args.intervals != "any-type" and args.estimator != "inversion":
         raise ValueError(
             f"--intervals {args.intervals}: for --estimator inversion only (got "
@@ -595,6 +631,11 @@ def run(args) -> int:
         "warnings": warnings,
         "modelled_lamps_used": args.modelled_per_class,
         "mixtures_per_class": args.mixtures if args.estimator == "inversion" else 0,
+        "peak_shifts_nm": (
+            model.diagnostics.get("peak_shifts", {}).get("shifts_nm", [])
+            if args.estimator == "inversion"
+            else []
+        ),
         "sigma_rel": _sigma_json(model, args.estimator),
     }
     if args.plot:
