@@ -1025,6 +1025,39 @@ def shifted_lamps(
     return LampSet(ids, rows, l1, l2)
 
 
+def planck_lamps(wavelength_nm) -> LampSet:
+    """The library's modelled incandescent spectra (Planck's law,
+    `datasets.lamps.MODELLED_INCANDESCENT_K`, per lumen; `Planck1901`), as
+    prior lamps of level 1 `incandescent`, level 2 `incandescent_halogen`.
+
+    Why: an incandescent lamp is a thermal radiator, so its family has
+    physics no measured class carries: with these in every prior a halogen
+    lamp is named `incandescent` even when no measured incandescent lamp
+    trains (each class held out in turn, partition 0: level 1 0.0 -> 0.99).
+    They are modelled spectra: they train, never score (no scene row belongs
+    to them), and every result that uses them says so. Not fitted to any
+    lamp, so they carry no scored lamp's information."""
+    lib = library(wavelength_nm=np.asarray(wavelength_nm, float))
+    keep = [
+        i
+        for i, r in enumerate(lib.records)
+        if r.modelled and r.level1 == "incandescent"
+    ]
+    recs = [lib.records[i] for i in keep]
+    return LampSet(
+        tuple(r.id for r in recs),
+        np.asarray(lib.values[keep], float),
+        tuple(r.level1 for r in recs),
+        tuple(r.level2 for r in recs),
+    )
+
+
+def _with_planck(always: LampSet | None, grid) -> LampSet:
+    """`always` (None: no lamps) plus `planck_lamps`."""
+    planck = planck_lamps(grid)
+    return planck if always is None else always + planck
+
+
 def modelled_lamps(
     train_ids: Sequence[str],
     wavelength_nm,
@@ -1909,6 +1942,11 @@ SHIFT_ESTIMATOR = "inversion-moon-mix-metric-narrow-shift"
 direct-emission LEDs in every prior (`fit_inversion(peak_shifts=
 PEAK_SHIFTS_NM)`, `shifted_lamps`)."""
 
+PLANCK_ESTIMATOR = "inversion-moon-mix-metric-narrow-planck"
+"""`NARROW_ESTIMATOR` with the library's modelled incandescent spectra
+(`planck_lamps`) in every prior, beside the never-scored measured lamps:
+modelled spectra train, never score; its records say `modelled_in_prior`."""
+
 MODEL_NOISE_SEED_OFFSET = 15485863
 """Noise seed offset of modelled lamps' rows (a prime): with photon noise,
 their draws never share a seed with the measured rows' draws."""
@@ -2230,11 +2268,12 @@ def cross_validate(
                 MIX_METRIC_ESTIMATOR,
                 NARROW_ESTIMATOR,
                 SHIFT_ESTIMATOR,
+                PLANCK_ESTIMATOR,
             ):
-                narrow = name in (NARROW_ESTIMATOR, SHIFT_ESTIMATOR)
+                narrow = name in (NARROW_ESTIMATOR, SHIFT_ESTIMATOR, PLANCK_ESTIMATOR)
                 if name == MIX_METRIC_ESTIMATOR and NARROW_ESTIMATOR in estimators:
                     continue  # scored from the narrow fit at offset 0
-                per = name in (MIX_METRIC_ESTIMATOR, NARROW_ESTIMATOR, SHIFT_ESTIMATOR)
+                per = narrow or name == MIX_METRIC_ESTIMATOR
                 mix = per or name == MIX_ESTIMATOR
                 told = mix or name in (MOON_ESTIMATOR, MOON_UNSEEN_ESTIMATOR)
                 moon_rows = context_moon(ctx) if told else None
@@ -2252,7 +2291,11 @@ def cross_validate(
                         basis=basis,
                         surface_mode=mode,
                         row_surface=si,
-                        always=always,
+                        always=(
+                            _with_planck(always, grid)
+                            if name == PLANCK_ESTIMATOR
+                            else always
+                        ),
                         modelled_per_class=n_model,
                         modelled_classes=modelled_classes,
                         modelled_seed=seed,
@@ -2330,7 +2373,7 @@ def cross_validate(
                     f"{(*ESTIMATORS, *MODELLED_ESTIMATORS)} or "
                     f"{(EVIDENCE_ESTIMATOR, MOON_ESTIMATOR, MOON_UNSEEN_ESTIMATOR)}"
                     f" or {(MIX_ESTIMATOR, MIX_METRIC_ESTIMATOR, NARROW_ESTIMATOR)}"
-                    f" or {SHIFT_ESTIMATOR!r}."
+                    f" or {(SHIFT_ESTIMATOR, PLANCK_ESTIMATOR)}."
                 )
         for (name, mode), (p, inv) in preds.items():
             res = p if isinstance(p, InversionResult) else None
@@ -2376,6 +2419,8 @@ def cross_validate(
                     rec["sigma_rel"] = inv.sigma_rel
                     if inv.metric_sigma:
                         rec["metric_noise"] = [list(x) for x in inv.metric_noise]
+                    if name == PLANCK_ESTIMATOR:
+                        rec["modelled_in_prior"] = list(planck_lamps(grid).ids)
                 if modelled_per_class > 0:
                     rec.update(model_info.get(name) or _modelled_fields(inv))
                 out.append(rec)
@@ -2609,6 +2654,7 @@ def leave_one_class_out(
     floor_grid: Sequence[float] = (SIGMA_FLOOR,),
     interval_offsets: Sequence[float] = (0.0,),
     peak_shifts: Sequence[float] = (),
+    planck: bool = False,
 ):
     """Unseen lamp types: for every scored level-2 class, fit on all other
     classes (inner folds: 2 class-stratified lamp folds of those) and score its
@@ -2633,7 +2679,9 @@ def leave_one_class_out(
     `"offset 0"` (`Inversion.with_interval_offset(0)`), the same but for the
     intervals. `peak_shifts`: wavelength-shifted copies of the prior's
     direct-emission LEDs (`fit_inversion(peak_shifts=)`; never of the
-    held-out class's lamps, which are in no prior)."""
+    held-out class's lamps, which are in no prior). `planck`: the library's
+    modelled incandescent spectra in every prior (`planck_lamps`; the
+    records then say `modelled_in_prior`)."""
     two = len(interval_offsets) > 1
     if two and 0.0 not in [float(x) for x in interval_offsets]:
         raise ValueError(
@@ -2641,6 +2689,9 @@ def leave_one_class_out(
         )
     lamps, always, cond, row_types = context_setup(ctx)
     grid = ctx.wavelength_nm
+    modelled_in_prior = planck_lamps(grid) if planck else None
+    if planck:
+        always = _with_planck(always, grid)
     rad = ctx.radiance(bands)
     w = band_weights_on(bands, grid)
     row_lamp = np.asarray(ctx.table.lamp_of)
@@ -2722,6 +2773,8 @@ def leave_one_class_out(
             rec.update(_interval_fields(iv90[sel], t, v))
             if tag is not None:
                 rec["intervals"] = tag
+            if modelled_in_prior is not None:
+                rec["modelled_in_prior"] = list(modelled_in_prior.ids)
             if modelled_per_class > 0:
                 rec.update(_modelled_fields(inv))
             out.append(rec)

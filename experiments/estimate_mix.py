@@ -68,17 +68,17 @@ calibration (`fit_inversion(calibration=)`; "classes" with mixtures is what
 "per-metric" also chooses the floor from `FLOOR_GRID`); optionally a fifth,
 the interval offsets (`fit_inversion(interval_offsets=)`; several: the
 offset-0 intervals of the same fit are reported too, as "LABEL (offset 0)"),
-and a sixth, the peak shifts of direct-emission LEDs in every prior
-(`fit_inversion(peak_shifts=)`; default none)."""
+and a sixth, further keyword arguments of `leave_one_class_out` (e.g.
+`{"peak_shifts": ...}`, `{"planck": True}`; default none)."""
 
 
 def unseen_options(run: tuple) -> tuple:
-    """An unseen-types run's (interval offsets, peak shifts), the optional
-    fifth and sixth fields (defaults `(0.0,)` and `()`)."""
+    """An unseen-types run's (interval offsets, further keyword arguments),
+    the optional fifth and sixth fields (defaults `(0.0,)` and `{}`)."""
     rest = run[4:]
     return (
         tuple(rest[0]) if rest else (0.0,),
-        tuple(rest[1]) if len(rest) > 1 else (),
+        dict(rest[1]) if len(rest) > 1 else {},
     )
 
 
@@ -285,6 +285,14 @@ def oracle(ctx, bands) -> dict:
     return out
 
 
+def _planck_used(study: Study) -> bool:
+    """Whether any estimator or unseen run of `study` has modelled
+    incandescent spectra in its prior."""
+    return any("planck" in e for e in study.estimators) or any(
+        unseen_options(run)[1].get("planck") for run in study.unseen
+    )
+
+
 def manifest_config(study: Study, partitions: int) -> dict:
     """The manifest's `config` of a run of `study` over `partitions`."""
     from bandopt import inversion as inv_mod
@@ -305,7 +313,10 @@ def manifest_config(study: Study, partitions: int) -> dict:
                 "interval_calibration": c,
                 "sigma_rule": d,
                 "interval_offsets": list(unseen_options(run)[0]),
-                "peak_shifts_nm": list(unseen_options(run)[1]),
+                "options": {
+                    k: list(v) if isinstance(v, tuple) else v
+                    for k, v in unseen_options(run)[1].items()
+                },
             }
             for run in study.unseen
             for a, b, c, d in [run[:4]]
@@ -318,10 +329,16 @@ def manifest_config(study: Study, partitions: int) -> dict:
             "; wavelength-shifted copies of direct-emission LEDs where the "
             "estimator or unseen run says -shift"
             if any("shift" in e for e in study.estimators)
-            or any(unseen_options(run)[1] for run in study.unseen)
+            or any("peak_shifts" in unseen_options(run)[1] for run in study.unseen)
+            else ""
+        )
+        + (
+            "; the library's modelled incandescent spectra (Planck's law) where "
+            "the estimator or unseen run says -planck"
+            if _planck_used(study)
             else ""
         ),
-        "modelled_lamps_used": False,
+        "modelled_lamps_used": _planck_used(study),
     }
 
 
@@ -408,7 +425,7 @@ def main(argv=None, study: Study | None = None) -> int:
     if not args.no_unseen:
         for run in study.unseen:
             label, mix, calibration, rule = run[:4]
-            offsets, shifts = unseen_options(run)
+            offsets, more = unseen_options(run)
             recs = inv_mod.leave_one_class_out(
                 ctx0,
                 rec_bands,
@@ -422,7 +439,7 @@ def main(argv=None, study: Study | None = None) -> int:
                     else (inv_mod.SIGMA_FLOOR,)
                 ),
                 interval_offsets=offsets,
-                peak_shifts=shifts,
+                **more,
             )
             for tag, rs in _by_intervals(recs).items():
                 key = label if tag in (None, "narrowest") else f"{label} ({tag})"
@@ -445,7 +462,7 @@ def main(argv=None, study: Study | None = None) -> int:
         "extra": study.extra(records) if study.extra else None,
         "bands": {"recommended": "results/search/recommended_bands.json"},
         "scored_lamps": "measured lamps only",
-        "modelled_lamps_used": False,
+        "modelled_lamps_used": _planck_used(study),
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     (study.figure or figure)(summary, out / study.figure_name)

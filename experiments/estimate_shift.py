@@ -49,13 +49,13 @@ PAIRED_DIGITS = {"LER": 1, "G": 3, "CCT": 0, "CCT_mired": 1, "LER_covered": 3,
 CLASS_KEYS = ("LER", "G", "CCT", "CCT_mired", "LER_covered", "level1_correct")
 
 
-def by_class(records) -> dict:
+def by_class(records, estimators=(BASE, SHIFT)) -> dict:
     """Recommended bands: per estimator and held-out level-2 class, the mean
     over lamps and partitions of each lamp's error, coverage and level-1
-    rate (where the shifts act: the amber LEDs; and whether any other class
-    pays for them)."""
+    rate (where a change to the prior acts, e.g. the shifts on the amber
+    LEDs, and whether any other class pays for it)."""
     out: dict = {}
-    for est in (BASE, SHIFT):
+    for est in estimators:
         rs = [
             r for r in records
             if r["band_set"] == "recommended" and r["estimator"] == est
@@ -74,19 +74,34 @@ def by_class(records) -> dict:
 
 def readme_text(summary: dict) -> str:
     shifts = ", ".join(f"{x:+g}" for x in summary["peak_shifts_nm"])
-    lines = [
+    return variant_text(
+        summary,
+        SHIFT,
         "## Shifted direct-emission LEDs in the prior "
         "(`results/estimate_shift/`, `make estimate-shift`)",
+        f"`{SHIFT}` also holds, in every prior it builds, copies of that prior's "
+        "own direct-emission LEDs (one visible band at most 40 nm wide: in this "
+        f"library the four direct amber LEDs) shifted by {shifts} nm.",
+        "without → with shifts",
+    )
+
+
+def variant_text(
+    summary: dict, variant: str, heading: str, what: str, change: str
+) -> str:
+    """The README section of a study that scores `BASE` against `variant`
+    (the same estimator with something added to every prior, said by
+    `what`): rows, paired differences, per class (`change`: how the per-class
+    sentence names the two, e.g. "without → with shifts"), unseen types."""
+    lines = [
+        heading,
         "",
         "The scenes, lamp partitions and folds of `make estimate`; surface "
         "unknown, the Moon told, blends in every prior, one band-error model per "
         "metric, the narrowest calibrated interval unit (`bandopt evaluate`'s "
         f"estimator); {summary['partitions']} partitions, class-balanced MAE "
         "over held-out measured lamps, mean ± SD over partitions. "
-        f"`{SHIFT}` also holds, in every prior it builds, copies of that prior's "
-        "own direct-emission LEDs (one visible band at most 40 nm wide: in this "
-        f"library the four direct amber LEDs) shifted by {shifts} nm. Generated "
-        "from `summary.json`.",
+        f"{what} Generated from `summary.json`.",
         "",
         "| band set | estimator | LER [lm/W] | G | CCT [K] | coverage LER/G/CCT "
         "| level-1 right |",
@@ -95,7 +110,7 @@ def readme_text(summary: dict) -> str:
     lines += [row_line(r, surface=False) for r in summary["rows"]]
     lines += [
         "",
-        f"Paired by partition, `{SHIFT}` minus `{BASE}` (negative = better or "
+        f"Paired by partition, `{variant}` minus `{BASE}` (negative = better or "
         "narrower):",
         "",
         "| band set | LER [lm/W] | G | CCT [K] | CCT [mired] | coverage LER "
@@ -126,10 +141,10 @@ def readme_text(summary: dict) -> str:
             + " |"
         )
     classes = (summary.get("extra") or {}).get("by_class") or {}
-    if classes.get(BASE) and classes.get(SHIFT):
+    if classes.get(BASE) and classes.get(variant):
         cells = []
         for c in classes[BASE]:
-            a, b = classes[BASE][c], classes[SHIFT].get(c, {})
+            a, b = classes[BASE][c], classes[variant].get(c, {})
             if a.get("LER") is None or b.get("LER") is None:
                 continue
             cells.append(
@@ -139,7 +154,7 @@ def readme_text(summary: dict) -> str:
         lines += [
             "",
             "Per held-out class (recommended bands, mean over lamps and "
-            "partitions; lamps per class), without → with shifts: "
+            f"partitions; lamps per class), {change}: "
             + "; ".join(cells)
             + ".",
         ]
@@ -174,7 +189,7 @@ STUDY = Study(
     pairs=((SHIFT, BASE),),
     unseen=(
         (f"{BASE}-loco", None, "classes", "per-metric", GRID),
-        (f"{SHIFT}-loco", None, "classes", "per-metric", GRID, SHIFTS),
+        (f"{SHIFT}-loco", None, "classes", "per-metric", GRID, {"peak_shifts": SHIFTS}),
     ),
     title="Held-out measured lamps, surface unknown, Moon told: without vs with "
     "shifted direct-emission LEDs in the prior",

@@ -128,11 +128,12 @@ def test_manifest_lists_every_unseen_run_with_its_offsets():
     assert runs == [
         {"label": f"{ei.NARROW}-loco", "mixtures": None,
          "interval_calibration": "classes", "sigma_rule": "per-metric",
-         "interval_offsets": list(ei.GRID), "peak_shifts_nm": []}
+         "interval_offsets": list(ei.GRID), "options": {}}
     ]  # fmt: skip
     old = manifest_config(Study(), 4)["unseen_types"]  # four-field runs
     assert {r["interval_offsets"] == [0.0] for r in old} == {True}
-    assert {tuple(r["peak_shifts_nm"]) for r in old} == {()}
+    assert [r["options"] for r in old] == [{}] * len(old)
+    assert manifest_config(Study(), 4)["modelled_lamps_used"] is False
 
 
 def test_help_is_this_studys(capsys):
