@@ -1052,7 +1052,7 @@ def planck_lamps(wavelength_nm) -> LampSet:
     )
 
 
-def _with_planck(always: LampSet | None, grid) -> LampSet:
+def with_planck_lamps(always: LampSet | None, grid) -> LampSet:
     """`always` (None: no lamps) plus `planck_lamps`."""
     planck = planck_lamps(grid)
     return planck if always is None else always + planck
@@ -2292,7 +2292,7 @@ def cross_validate(
                         surface_mode=mode,
                         row_surface=si,
                         always=(
-                            _with_planck(always, grid)
+                            with_planck_lamps(always, grid)
                             if name == PLANCK_ESTIMATOR
                             else always
                         ),
@@ -2691,7 +2691,7 @@ def leave_one_class_out(
     grid = ctx.wavelength_nm
     modelled_in_prior = planck_lamps(grid) if planck else None
     if planck:
-        always = _with_planck(always, grid)
+        always = with_planck_lamps(always, grid)
     rad = ctx.radiance(bands)
     w = band_weights_on(bands, grid)
     row_lamp = np.asarray(ctx.table.lamp_of)

@@ -325,6 +325,7 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             prior=types.SimpleNamespace(
                 ids=("a", "b", "c") + ("m",) * n + ("mix:a+b@0.5",) * n_mix
                 + ("shift:a@+5nm",) * 4 * len(kw["peak_shifts"])
+                + (() if kw["always"] is None else kw["always"].ids)
             ),
             sigma_rel=0.03,
             sigma_floor=0.001,
@@ -359,9 +360,9 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
     monkeypatch.setattr(inv_mod, "context_moon", lambda c: moon)
     ctx = _fake_context(case)
     ctx.table.n_lamps = len(lamps.ids)
-    for n, intervals, mix, sigma, unit, shifts in (
-        (0, "known-types", 0, "joint", "half-width", "off"),
-        (4, "any-type", 50, "per-metric", "narrowest", "on"),
+    for n, intervals, mix, sigma, unit, shifts, planck in (
+        (0, "known-types", 0, "joint", "half-width", "off", "on"),
+        (4, "any-type", 50, "per-metric", "narrowest", "on", "off"),
     ):
         args = types.SimpleNamespace(
             estimator="inversion",
@@ -371,6 +372,7 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             sigma=sigma,
             interval_unit=unit,
             peak_shifts=shifts,
+            planck=planck,
         )
         _, _, desc = _cmd_evaluate._fit(args, ctx, FIVE, "unknown")
         want = inv_mod.INTERVAL_OFFSET_GRID if unit == "narrowest" else (0.0,)
@@ -392,6 +394,10 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             )
         assert seen["modelled_per_class"] == n
         assert seen["mixtures"] == mix
+        got = () if seen["always"] is None else seen["always"].ids
+        assert got == (inv_mod.planck_lamps(GRID).ids if planck == "on" else ())
+        said = "3 measured library lamps, 5 modelled incandescent spectra (Planck's"
+        assert (said in desc) == (planck == "on")
         want = inv_mod.PEAK_SHIFTS_NM if shifts == "on" else ()
         assert tuple(seen["peak_shifts"]) == want
         assert ("32 copies of its direct-emission LEDs shifted by -10, -7.5, -5, "
@@ -464,6 +470,12 @@ def test_evaluate_json_says_how_many_modelled_lamps(
         capsys.readouterr().err
     )
     assert out["peak_shifts_nm"] == []  # a prior built without a fit
+    assert out["modelled_in_prior"] == []
+    other = "off" if _cmd_evaluate.PLANCK_DEFAULT == "on" else "on"
+    assert main([*argv, "--estimator", "kernel", "--planck", other]) == 2
+    assert f"--planck {other}: the Planck spectra go into the prior of" in (
+        capsys.readouterr().err
+    )
     other = "off" if _cmd_evaluate.PEAK_SHIFTS_DEFAULT == "on" else "on"
     assert main([*argv, "--estimator", "ridge", "--peak-shifts", other]) == 2
     assert f"--peak-shifts {other}: shifted LEDs go into the prior of" in (

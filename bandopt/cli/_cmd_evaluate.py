@@ -94,6 +94,16 @@ def register(subparsers):
         "results/estimate_shift)",
     )
     p.add_argument(
+        "--planck",
+        choices=("on", "off"),
+        default=PLANCK_DEFAULT,
+        help="inversion only: also put the library's modelled incandescent "
+        "spectra (Planck's law, 2400-3200 K) into the prior, so an incandescent "
+        "lamp is named incandescent whatever the measured lamps; modelled "
+        "spectra train, never score, and the JSON lists them in "
+        f"modelled_in_prior (default {PLANCK_DEFAULT}; results/estimate_planck)",
+    )
+    p.add_argument(
         "--sigma",
         choices=tuple(SIGMA_RULES),
         default="per-metric",
@@ -157,6 +167,9 @@ JAX)."""
 
 PEAK_SHIFTS_DEFAULT = "off"
 """Default of `--peak-shifts` (see `results/estimate_shift/`)."""
+
+PLANCK_DEFAULT = "off"
+"""Default of `--planck` (see `results/estimate_planck/`)."""
 
 SIGMA_RULES = {"per-metric": "per-metric", "joint": "error"}
 """`--sigma` choice -> `bandopt.inversion.fit_inversion(sigma_rule=)`."""
@@ -316,7 +329,11 @@ def _fit(args, ctx, bands, mode):
             basis=basis,
             surface_mode=mode,
             row_surface=row_surface,
-            always=always,
+            always=(
+                inv_mod.with_planck_lamps(always, grid)
+                if args.planck == "on"
+                else always
+            ),
             modelled_per_class=args.modelled_per_class,
             # the Moon's brightness of every training scene is known (as it is
             # for an acquisition), so it is told, not fitted
@@ -344,8 +361,14 @@ def _fit(args, ctx, bands, mode):
         n_model = sum(added.values())
         n_mix = inv.diagnostics["mixtures"]["n"]
         shifted = inv.diagnostics["peak_shifts"]
-        n_measured = len(inv.prior.ids) - n_model - n_mix - shifted["n"]
+        n_planck = sum(i.startswith("planck_") for i in inv.prior.ids)
+        n_measured = len(inv.prior.ids) - n_model - n_mix - shifted["n"] - n_planck
         prior = f"{n_measured} measured library lamps"
+        if n_planck:
+            prior += (
+                f", {n_planck} modelled incandescent spectra (Planck's law; they "
+                "train, never score)"
+            )
         if n_model:
             prior += (
                 f" and {n_model} modelled lamps ({args.modelled_per_class} per class "
@@ -536,6 +559,11 @@ def run(args) -> int:
             f"--interval-unit {args.interval_unit}: for --estimator inversion only "
             f"(got --estimator {args.estimator})."
         )
+    if args.planck != PLANCK_DEFAULT and args.estimator != "inversion":
+        raise ValueError(
+            f"--planck {args.planck}: the Planck spectra go into the prior of "
+            f"--estimator inversion only (got --estimator {args.estimator})."
+        )
     if args.peak_shifts != PEAK_SHIFTS_DEFAULT and args.estimator != "inversion":
         raise ValueError(
             f"--peak-shifts {args.peak_shifts}: shifted LEDs go into the prior of "
@@ -631,6 +659,11 @@ def run(args) -> int:
         "warnings": warnings,
         "modelled_lamps_used": args.modelled_per_class,
         "mixtures_per_class": args.mixtures if args.estimator == "inversion" else 0,
+        "modelled_in_prior": (
+            [i for i in model.prior.ids if i.startswith("planck_")]
+            if args.estimator == "inversion"
+            else []
+        ),
         "peak_shifts_nm": (
             model.diagnostics.get("peak_shifts", {}).get("shifts_nm", [])
             if args.estimator == "inversion"
