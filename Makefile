@@ -10,7 +10,7 @@ SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: run test test-slow lint bench atmospheres surfaces library lamp-models ler \
         g cct sweep compare classify classify-partitions radiometry spatial \
-        noise-aware estimate estimate-moon estimate-mix estimate-noise estimate-intervals estimate-shift estimate-planck unseen-ceiling \
+        noise-aware estimate estimate-moon estimate-mix estimate-noise estimate-intervals estimate-shift estimate-planck estimate-defaults unseen-ceiling \
         before-after report check-report docs tutorial clean
 
 $(STAMP): pyproject.toml requirements.lock
@@ -89,6 +89,9 @@ estimate-shift: $(STAMP)  ## evaluate's estimator without vs with wavelength-shi
 
 estimate-planck: $(STAMP)  ## evaluate's estimator without vs with the library's modelled incandescent (Planck) spectra in the prior, our bands and the two best reference sensors, 4 lamp partitions, paired; unseen types; how far measured halogens lie from Planck (resumable: ARGS=--resume)
 	$(BIN)/python -m experiments.estimate_planck $(ARGS)
+
+estimate-defaults: $(STAMP)  ## bandopt evaluate's estimator as a whole (shifted LEDs and Planck spectra in the prior) against the estimator without both, our bands and the two best reference sensors, 4 lamp partitions, paired; unseen types (resumable: ARGS=--resume)
+	$(BIN)/python -m experiments.estimate_defaults $(ARGS)
 
 unseen-ceiling: $(STAMP)  ## the level-1 family of unseen lamp types from bare lamp spectra (5-50 nm) and the recommended bands, classifiers trained on the other classes: the ceiling of issue 12's 90 % goal (under a minute)
 	$(BIN)/python -m experiments.unseen_ceiling $(ARGS)

@@ -1947,6 +1947,11 @@ PLANCK_ESTIMATOR = "inversion-moon-mix-metric-narrow-planck"
 (`planck_lamps`) in every prior, beside the never-scored measured lamps:
 modelled spectra train, never score; its records say `modelled_in_prior`."""
 
+DEFAULT_ESTIMATOR = "inversion-moon-mix-metric-narrow-shift-planck"
+"""`NARROW_ESTIMATOR` with both `SHIFT_ESTIMATOR`'s shifted LEDs and
+`PLANCK_ESTIMATOR`'s modelled incandescent spectra in every prior: what
+`bandopt evaluate` does by default."""
+
 MODEL_NOISE_SEED_OFFSET = 15485863
 """Noise seed offset of modelled lamps' rows (a prime): with photon noise,
 their draws never share a seed with the measured rows' draws."""
@@ -2269,8 +2274,16 @@ def cross_validate(
                 NARROW_ESTIMATOR,
                 SHIFT_ESTIMATOR,
                 PLANCK_ESTIMATOR,
+                DEFAULT_ESTIMATOR,
             ):
-                narrow = name in (NARROW_ESTIMATOR, SHIFT_ESTIMATOR, PLANCK_ESTIMATOR)
+                narrow = name in (
+                    NARROW_ESTIMATOR,
+                    SHIFT_ESTIMATOR,
+                    PLANCK_ESTIMATOR,
+                    DEFAULT_ESTIMATOR,
+                )
+                planck = name in (PLANCK_ESTIMATOR, DEFAULT_ESTIMATOR)
+                shift = name in (SHIFT_ESTIMATOR, DEFAULT_ESTIMATOR)
                 if name == MIX_METRIC_ESTIMATOR and NARROW_ESTIMATOR in estimators:
                     continue  # scored from the narrow fit at offset 0
                 per = narrow or name == MIX_METRIC_ESTIMATOR
@@ -2292,9 +2305,7 @@ def cross_validate(
                         surface_mode=mode,
                         row_surface=si,
                         always=(
-                            with_planck_lamps(always, grid)
-                            if name == PLANCK_ESTIMATOR
-                            else always
+                            with_planck_lamps(always, grid) if planck else always
                         ),
                         modelled_per_class=n_model,
                         modelled_classes=modelled_classes,
@@ -2313,7 +2324,7 @@ def cross_validate(
                         mixtures=MIX_PAIRS if mix else 0,
                         floor_grid=FLOOR_GRID if per else (SIGMA_FLOOR,),
                         interval_offsets=INTERVAL_OFFSET_GRID if narrow else (0.0,),
-                        peak_shifts=PEAK_SHIFTS_NM if name == SHIFT_ESTIMATOR else (),
+                        peak_shifts=PEAK_SHIFTS_NM if shift else (),
                     )
                     sub = (
                         None
@@ -2373,7 +2384,7 @@ def cross_validate(
                     f"{(*ESTIMATORS, *MODELLED_ESTIMATORS)} or "
                     f"{(EVIDENCE_ESTIMATOR, MOON_ESTIMATOR, MOON_UNSEEN_ESTIMATOR)}"
                     f" or {(MIX_ESTIMATOR, MIX_METRIC_ESTIMATOR, NARROW_ESTIMATOR)}"
-                    f" or {(SHIFT_ESTIMATOR, PLANCK_ESTIMATOR)}."
+                    f" or {(SHIFT_ESTIMATOR, PLANCK_ESTIMATOR, DEFAULT_ESTIMATOR)}."
                 )
         for (name, mode), (p, inv) in preds.items():
             res = p if isinstance(p, InversionResult) else None
@@ -2419,7 +2430,7 @@ def cross_validate(
                     rec["sigma_rel"] = inv.sigma_rel
                     if inv.metric_sigma:
                         rec["metric_noise"] = [list(x) for x in inv.metric_noise]
-                    if name == PLANCK_ESTIMATOR:
+                    if name in (PLANCK_ESTIMATOR, DEFAULT_ESTIMATOR):
                         rec["modelled_in_prior"] = list(planck_lamps(grid).ids)
                 if modelled_per_class > 0:
                     rec.update(model_info.get(name) or _modelled_fields(inv))

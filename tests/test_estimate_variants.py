@@ -8,18 +8,28 @@ import numpy as np
 import pytest
 
 from bandopt import inversion as inv_mod
-from experiments import estimate_planck as ep, estimate_shift as es
+from experiments import (
+    estimate_defaults as ed,
+    estimate_planck as ep,
+    estimate_shift as es,
+)
 from experiments.estimate_mix import manifest_config
 
 
 def test_studies_pair_evaluates_estimator_with_one_change_each():
     assert es.SHIFTS == inv_mod.PEAK_SHIFTS_NM
     assert es.GRID == inv_mod.INTERVAL_OFFSET_GRID
-    assert (es.BASE, es.SHIFT, ep.PLANCK) == (
+    assert (es.BASE, es.SHIFT, ep.PLANCK, ed.DEFAULT) == (
         inv_mod.NARROW_ESTIMATOR,
         inv_mod.SHIFT_ESTIMATOR,
         inv_mod.PLANCK_ESTIMATOR,
+        inv_mod.DEFAULT_ESTIMATOR,
     )
+    assert ed.STUDY.estimators == (es.BASE, ed.DEFAULT)
+    assert ed.STUDY.pairs == ((ed.DEFAULT, es.BASE),)
+    ((*_, more),) = ed.STUDY.unseen
+    assert more == {"peak_shifts": es.SHIFTS, "planck": True}
+    assert manifest_config(ed.STUDY, 4)["modelled_lamps_used"] is True
     for study, variant, more in (
         (es.STUDY, es.SHIFT, {"peak_shifts": es.SHIFTS}),
         (ep.STUDY, ep.PLANCK, {"planck": True}),

@@ -93,10 +93,9 @@ def test_cross_validate_planck_rows_say_so_and_score_measured_lamps(monkeypatch)
     monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
     monkeypatch.setattr(inv_mod, "context_moon", lambda c: np.zeros(len(row_lamp)))
     ctx = _fake_context(case)
-    recs = inv_mod.cross_validate(
-        ctx, FIVE, estimators=(inv_mod.PLANCK_ESTIMATOR,), folds=[0]
-    )
-    assert recs and {r["estimator"] for r in recs} == {inv_mod.PLANCK_ESTIMATOR}
+    both = (inv_mod.PLANCK_ESTIMATOR, inv_mod.DEFAULT_ESTIMATOR)
+    recs = inv_mod.cross_validate(ctx, FIVE, estimators=both, folds=[0])
+    assert recs and {r["estimator"] for r in recs} == set(both)
     assert {r["lamp"] for r in recs} <= set(lamps.ids)
     for r in recs:
         assert r["modelled_in_prior"] == list(inv_mod.planck_lamps(GRID).ids)
