@@ -126,3 +126,24 @@ def test_planck_match_against_the_library():
     assert 0.0 < m["LER_diff_mean_abs"] < 40.0
     lo, hi = m["LER_diff_range"]
     assert lo <= 0.0 <= hi or np.isclose(lo, hi)
+
+
+@pytest.mark.parametrize(
+    "module", [es, ep, ed], ids=["estimate-shift", "estimate-planck", "defaults"]
+)
+def test_committed_section_is_generated_from_the_committed_summary(module):
+    import json
+    from pathlib import Path
+
+    results = Path(__file__).resolve().parents[1] / "results"
+    study = module.STUDY
+    summary = json.loads((results / Path(study.out).name / "summary.json").read_text())
+    readme = (results / "README.md").read_text()
+    start, end = f"<!-- {study.name}:start -->", f"<!-- {study.name}:end -->"
+    section = readme[readme.index(start) + len(start) : readme.index(end)]
+    assert section.strip() == module.readme_text(summary).strip()
+    assert summary["scored_lamps"] == "measured lamps only"
+    assert summary["modelled_lamps_used"] is (study is not es.STUDY)
+    assert summary["estimators"] == list(study.estimators)
+    for row in summary["rows"]:
+        assert row["out_of_range"] == 0 and row["partitions"] == 4
