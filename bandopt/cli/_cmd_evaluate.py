@@ -165,7 +165,7 @@ PEAK_SHIFTS = {"on": "grid", "off": ()}
 ("grid": `PEAK_SHIFTS_NM`, not imported here: the parser is built without
 JAX)."""
 
-PEAK_SHIFTS_DEFAULT = "off"
+PEAK_SHIFTS_DEFAULT = "on"
 """Default of `--peak-shifts` (see `results/estimate_shift/`)."""
 
 PLANCK_DEFAULT = "off"
