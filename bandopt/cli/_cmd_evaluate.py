@@ -168,7 +168,7 @@ JAX)."""
 PEAK_SHIFTS_DEFAULT = "on"
 """Default of `--peak-shifts` (see `results/estimate_shift/`)."""
 
-PLANCK_DEFAULT = "off"
+PLANCK_DEFAULT = "on"
 """Default of `--planck` (see `results/estimate_planck/`)."""
 
 SIGMA_RULES = {"per-metric": "per-metric", "joint": "error"}
