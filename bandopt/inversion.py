@@ -964,9 +964,9 @@ to any score)."""
 DIRECT_LED_MAX_FWHM_NM = 40.0
 """Widest single emission band (half-maximum width, visible part) that
 `shifted_lamps` treats as a direct-emission LED. A semiconductor's band is
-~15-30 nm wide in the visible (the library's direct amber LEDs: 12-20 nm);
+~15-30 nm wide in the visible (the library's direct amber LEDs: 13-20 nm);
 phosphor bands are wider (the library's phosphor-converted amber LEDs:
-55-100 nm), and their position is set by the phosphor, not shifted with a
+79-109 nm), and their position is set by the phosphor, not shifted with a
 junction, so they are not shifted."""
 
 

@@ -50,7 +50,7 @@ def test_only_one_narrow_band_is_a_direct_emitter():
 
 def test_library_direct_emitters_are_the_narrow_amber_leds():
     """Of the library's measured lamps, only the four direct amber LEDs
-    (half-maximum width 12-20 nm) are shifted: not the phosphor-converted
+    (half-maximum width 13-20 nm) are shifted: not the phosphor-converted
     amber LEDs, nor the warm white LEDs whose blue pump is weak."""
     lib = inv_mod.library_lamps(GRID, scored=True)
     picked = inv_mod.direct_emitters(lib, GRID)
