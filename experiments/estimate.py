@@ -611,9 +611,15 @@ def _recommendation(summary, coverage) -> dict:
         "of bandopt evaluate; it tells the inversion each scene's Moon brightness "
         f"(rows {MOON}), holds same-class blends of the library lamps in its "
         "prior (scored in results/estimate_mix/summary.json, rows "
-        "inversion-moon-mix) and estimates each metric under its own band-error "
+        "inversion-moon-mix), estimates each metric under its own band-error "
         "model (scored in results/estimate_noise/summary.json, rows "
-        "inversion-moon-mix-metric)",
+        "inversion-moon-mix-metric), gives 90 % intervals in the narrowest "
+        "calibrated unit (results/estimate_intervals/summary.json, rows "
+        "inversion-moon-mix-metric-narrow) and also holds shifted copies of the "
+        "direct-emission LEDs and the library's modelled incandescent (Planck) "
+        "spectra in its prior (results/estimate_defaults/summary.json, rows "
+        "inversion-moon-mix-metric-narrow-shift-planck; modelled spectra train, "
+        "never score)",
         "class_balanced_mae": rows,
         "coverage": coverage,
         "source": "results/estimate/summary.json",
