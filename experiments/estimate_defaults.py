@@ -19,7 +19,7 @@ the `estimate-defaults` section of `results/README.md` (default output
 only), as `experiments.estimate_mix` does (`Study`).
 """
 
-from experiments.estimate_mix import Study, main as _run
+from experiments.estimate_mix import UNKNOWN_ONLY, Study, main as _run
 from experiments.estimate_shift import (
     BASE,
     COLUMNS,
@@ -53,11 +53,7 @@ STUDY = Study(
     name="estimate-defaults",
     out="results/estimate_defaults",
     heading="## The estimator `bandopt evaluate` gives by default",
-    band_sets={
-        "recommended": ("unknown",),
-        "sdgsat-1": ("unknown",),
-        "nightsat": ("unknown",),
-    },
+    band_sets=dict(UNKNOWN_ONLY),
     estimators=(BASE, DEFAULT),
     pairs=((DEFAULT, BASE),),
     unseen=(

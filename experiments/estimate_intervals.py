@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from experiments.estimate import _fmt, diff_cells
-from experiments.estimate_mix import Study, main as _run
+from experiments.estimate_mix import UNKNOWN_ONLY, Study, main as _run
 
 
 BASE, NARROW = "inversion-moon-mix-metric", "inversion-moon-mix-metric-narrow"
@@ -231,11 +231,7 @@ STUDY = Study(
     name="estimate-intervals",
     out="results/estimate_intervals",
     heading="## Narrower 90 % intervals at the same coverage",
-    band_sets={
-        "recommended": ("unknown",),
-        "sdgsat-1": ("unknown",),
-        "nightsat": ("unknown",),
-    },
+    band_sets=dict(UNKNOWN_ONLY),
     estimators=(BASE, NARROW),
     pairs=((NARROW, BASE),),
     unseen=((f"{NARROW}-loco", None, "classes", "per-metric", GRID),),

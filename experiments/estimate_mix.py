@@ -53,6 +53,9 @@ BAND_SETS = {
 }
 """Band sets and the surface modes each is scored in (the two with every
 mode in `make estimate`, and its best reference sensor there)."""
+UNKNOWN_ONLY = {b: ("unknown",) for b in BAND_SETS}
+"""The same band sets, surface unknown only (the studies after
+`make estimate-noise`: our bands and the two best reference sensors)."""
 ESTIMATORS = ("inversion-moon", "inversion-moon-mix")
 """The told-Moon inversion without and with mixtures in its priors."""
 PAIRS = (("inversion-moon-mix", "inversion-moon"),)

@@ -30,7 +30,7 @@ blends are built from each fit's training lamps only and never score.
 import dataclasses
 
 from experiments.estimate import diff_cells, where_lines
-from experiments.estimate_mix import Study, main as _run, row_line
+from experiments.estimate_mix import UNKNOWN_ONLY, Study, main as _run, row_line
 
 
 ONE, PER = "inversion-moon-mix", "inversion-moon-mix-metric"
@@ -40,11 +40,7 @@ STUDY = Study(
     name="estimate-noise",
     out="results/estimate_noise",
     heading="## A band-error model per metric",
-    band_sets={
-        "recommended": ("unknown",),
-        "sdgsat-1": ("unknown",),
-        "nightsat": ("unknown",),
-    },
+    band_sets=dict(UNKNOWN_ONLY),
     estimators=(ONE, PER),
     pairs=((PER, ONE),),
     unseen=(

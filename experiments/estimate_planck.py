@@ -26,7 +26,7 @@ as `experiments.estimate_mix` does (`Study`).
 
 import numpy as np
 
-from experiments.estimate_mix import Study, main as _run
+from experiments.estimate_mix import UNKNOWN_ONLY, Study, main as _run
 from experiments.estimate_shift import (
     BASE,
     COLUMNS,
@@ -100,11 +100,7 @@ STUDY = Study(
     name="estimate-planck",
     out="results/estimate_planck",
     heading="## Modelled incandescent spectra in the prior",
-    band_sets={
-        "recommended": ("unknown",),
-        "sdgsat-1": ("unknown",),
-        "nightsat": ("unknown",),
-    },
+    band_sets=dict(UNKNOWN_ONLY),
     estimators=(BASE, PLANCK),
     pairs=((PLANCK, BASE),),
     unseen=(

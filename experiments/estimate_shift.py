@@ -27,7 +27,7 @@ the blends and shifted copies are built from each fit's training lamps only.
 import numpy as np
 
 from experiments.estimate import _fmt, diff_cells, where_lines
-from experiments.estimate_mix import Study, main as _run, row_line
+from experiments.estimate_mix import UNKNOWN_ONLY, Study, main as _run, row_line
 
 
 BASE = "inversion-moon-mix-metric-narrow"
@@ -180,11 +180,7 @@ STUDY = Study(
     name="estimate-shift",
     out="results/estimate_shift",
     heading="## Shifted direct-emission LEDs in the prior",
-    band_sets={
-        "recommended": ("unknown",),
-        "sdgsat-1": ("unknown",),
-        "nightsat": ("unknown",),
-    },
+    band_sets=dict(UNKNOWN_ONLY),
     estimators=(BASE, SHIFT),
     pairs=((SHIFT, BASE),),
     unseen=(

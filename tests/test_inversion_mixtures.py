@@ -115,12 +115,9 @@ def test_a_lamp_between_two_training_lamps_is_found_with_mixtures(case):
     assert errs[1] < 1.0  # lm/W
 
 
-def test_fit_builds_mixtures_from_its_own_priors_only(case, monkeypatch):
-    """Every prior the fit builds (inner folds, final) holds mixtures of its
-    own lamps only (an inner prior with one lamp per class has none): no
-    inner-validation or test lamp is in any of them, and the diagnostics say
-    how many the final prior holds."""
-    lamps, row_lamp, rad, train, test, inner, w = case
+def spy_priors(monkeypatch) -> list:
+    """Patch `build_inversion` to record the lamp ids of every prior built
+    (then build it as before); returns the list it appends to."""
     built = []
     real = inv_mod.build_inversion
 
@@ -129,6 +126,16 @@ def test_fit_builds_mixtures_from_its_own_priors_only(case, monkeypatch):
         return real(pset, *a, **k)
 
     monkeypatch.setattr(inv_mod, "build_inversion", spy)
+    return built
+
+
+def test_fit_builds_mixtures_from_its_own_priors_only(case, monkeypatch):
+    """Every prior the fit builds (inner folds, final) holds mixtures of its
+    own lamps only (an inner prior with one lamp per class has none): no
+    inner-validation or test lamp is in any of them, and the diagnostics say
+    how many the final prior holds."""
+    lamps, row_lamp, rad, train, test, inner, w = case
+    built = spy_priors(monkeypatch)
     inv = inv_mod.fit_inversion(
         rad, row_lamp, lamps, train, inner, w, inv_mod.Conditions.clear(GRID),
         basis=inv_mod._basis(GRID), mixtures=5,

@@ -12,6 +12,7 @@ import pytest
 
 from bandopt import inversion as inv_mod
 from tests._bands import FIVE, GRID
+from tests.test_inversion_mixtures import spy_priors
 from tests.test_inversion_models import _case, _fake_context, _pixels
 
 
@@ -55,14 +56,7 @@ def _unseen(halogen_case, monkeypatch, planck):
         radiance=lambda bands: rad,
         table=types.SimpleNamespace(lamp_of=row_lamp, truth=truth, valid=valid),
     )
-    built = []
-    real = inv_mod.build_inversion
-
-    def spy(pset, *a, **k):
-        built.append(pset.ids)
-        return real(pset, *a, **k)
-
-    monkeypatch.setattr(inv_mod, "build_inversion", spy)
+    built = spy_priors(monkeypatch)
     recs = inv_mod.leave_one_class_out(ctx, FIVE, planck=planck)
     return [r for r in recs if r["held_out_class"] == "incandescent_halogen"], built
 

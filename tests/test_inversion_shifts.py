@@ -13,6 +13,7 @@ import pytest
 from bandopt import inversion as inv_mod
 from bandopt.estimate import lamp_truth
 from tests._bands import GRID
+from tests.test_inversion_mixtures import spy_priors
 from tests.test_inversion_models import _case, _pixels
 
 
@@ -140,14 +141,7 @@ def test_fit_shifts_its_own_priors_leds_only(case, monkeypatch):
     train = np.arange(len(lamps.ids) - 1)
     l2 = np.asarray(lamps.level2, object)
     inner = [(np.setdiff1d(train, v), v) for v in (train[::2], train[1::2])]
-    built = []
-    real = inv_mod.build_inversion
-
-    def spy(pset, *a, **k):
-        built.append(pset.ids)
-        return real(pset, *a, **k)
-
-    monkeypatch.setattr(inv_mod, "build_inversion", spy)
+    built = spy_priors(monkeypatch)
     inv = inv_mod.fit_inversion(
         rad, row_lamp, lamps, train, inner, w, inv_mod.Conditions.clear(GRID),
         basis=inv_mod._basis(GRID), peak_shifts=(-5.0, 5.0),
