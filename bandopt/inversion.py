@@ -481,6 +481,18 @@ def _score_chunk(y, cand, log_ps, a, q, log_pk, noise, moon_b=None):
     return jax.vmap(one)(y, cand, log_ps, moon_b)
 
 
+def _lse(x, axis):
+    """`log Σ exp(x)` along `axis`, shifted by the maximum (not
+    differentiated: the scores are never). jax's `logsumexp` also guards
+    infinite inputs in ways these finite scores never need; this plain form is
+    ~10 % faster in `_score_chunk_shared` and gives the same posterior to the
+    last bit (measured on evaluate's whole prior). A row whose entries are all
+    -inf gives -inf, not NaN (its shift is taken as 0)."""
+    mx = jnp.max(x, axis=axis, keepdims=True)
+    mx = jnp.where(jnp.isfinite(mx), mx, 0.0)
+    return jnp.log(jnp.sum(jnp.exp(x - mx), axis=axis)) + jnp.squeeze(mx, axis)
+
+
 @functools.partial(jax.jit, static_argnames=("all_known",))
 def _score_chunk_shared(y, p, qq, log_ps, log_pk, noise, moon_b=None, all_known=False):
     """`_score_chunk` when every pixel has the same surface candidates.
@@ -537,7 +549,7 @@ def _score_chunk_shared(y, p, qq, log_ps, log_pk, noise, moon_b=None, all_known=
             r_yy = (syy - 2.0 * beta_told * sqy + beta_told**2 * sqq)[:, None, :]
             a1 = jnp.maximum(r_py, 0.0) / jnp.maximum(spp, tiny)
             chi = jnp.maximum(r_yy - a1 * r_py, 0.0)
-            lk = logsumexp(-0.5 * chi + lps, axis=2) + log_pk[None, :]
+            lk = _lse(-0.5 * chi + lps, axis=2) + log_pk[None, :]
             return lk, jnp.min(chi, axis=(1, 2))
         spy = grid(jnp.matmul(wy, pf.T, precision=hi))
         syy = jnp.sum(wy * yn, axis=1)[:, None, None]
@@ -568,7 +580,7 @@ def _score_chunk_shared(y, p, qq, log_ps, log_pk, noise, moon_b=None, all_known=
                 chi_known = _chi2_known(spp, spy, syy, sqq, spq, sqy, beta)
                 chi = jnp.where(is_known, chi_known, chi)
         chi = jnp.maximum(chi, 0.0)
-        lk = logsumexp(-0.5 * chi + lps, axis=2) + log_pk[None, :]
+        lk = _lse(-0.5 * chi + lps, axis=2) + log_pk[None, :]
         return lk, jnp.min(chi, axis=(1, 2))
 
     lk, chi = jax.lax.map(at, noise)  # (S, n, k), (S, n)
@@ -708,16 +720,22 @@ def _score(y, cand, log_ps, a, q, log_pk, noise, moon_b=None):
                 [moon_b, np.full(npad - n, 0.0 if all_known else np.nan)]
             )
         )
+        # the per-chunk arguments go in as numpy slices: `jnp.asarray` of each
+        # is an eager op, ~0.3 ms a call, ~8 % of evaluate's predict at 32
+        # pixels per chunk; the constant ones are converted once
+        const = (
+            None if qq is None else jnp.asarray(qq),
+            jnp.asarray(log_ps[0]),
+            jnp.asarray(log_pk),
+            jnp.asarray(noise),
+        )
         lks, chis = [], []
         for i in range(0, npad, shared_chunk):
             lk, chi = _score_chunk_shared(
-                jnp.asarray(y[i : i + shared_chunk]),
+                y[i : i + shared_chunk],
                 p,
-                None if qq is None else jnp.asarray(qq),
-                jnp.asarray(log_ps[0]),
-                jnp.asarray(log_pk),
-                jnp.asarray(noise),
-                None if mb is None else jnp.asarray(mb[i : i + shared_chunk]),
+                *const,
+                None if mb is None else mb[i : i + shared_chunk],
                 all_known=all_known,
             )
             lks.append(np.asarray(lk))

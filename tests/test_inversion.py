@@ -347,6 +347,25 @@ def test_shared_candidate_path_matches_the_per_pixel_path(moon):
     np.testing.assert_allclose(chi, np.asarray(ref_chi), rtol=1e-9, atol=1e-9)
 
 
+def test_plain_log_sum_exp_is_jaxs():
+    """The scoring kernels' `_lse` gives jax's `logsumexp` on finite rows of
+    any scale (no overflow at 1e4, no underflow at -1e4) and -inf, not NaN,
+    on a row that is -inf throughout."""
+    import jax.numpy as jnp
+    from jax.scipy.special import logsumexp
+
+    rng = np.random.default_rng(5)
+    x = rng.normal(0, 30, (4, 7, 26))
+    x[1] += 1e4
+    x[2] -= 1e4
+    x[3, 0] = -np.inf
+    x[3, 1, :5] = -np.inf
+    got = np.asarray(inv_mod._lse(jnp.asarray(x), axis=2))
+    ref = np.asarray(logsumexp(jnp.asarray(x), axis=2))
+    np.testing.assert_allclose(got, ref, rtol=1e-13)
+    assert np.all(np.isneginf(got[3, 0])) and np.all(np.isfinite(got[:3]))
+
+
 def test_band_weights_are_the_forward_models():
     """The inversion's band weights come from `forward.band_weights_on`, the
     weights of every forward band radiance: a flat spectrum reads 1 in every
