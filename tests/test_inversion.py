@@ -347,23 +347,24 @@ def test_shared_candidate_path_matches_the_per_pixel_path(moon):
     np.testing.assert_allclose(chi, np.asarray(ref_chi), rtol=1e-9, atol=1e-9)
 
 
-def test_plain_log_sum_exp_is_jaxs():
-    """The scoring kernels' `_lse` gives jax's `logsumexp` on finite rows of
-    any scale (no overflow at 1e4, no underflow at -1e4) and -inf, not NaN,
-    on a row that is -inf throughout."""
+@pytest.mark.parametrize("scale", [1.0, 1e4])
+def test_two_pass_log_sum_is_jaxs(scale):
+    """The scoring kernels' `_log_sum_chi` gives jax's `logsumexp` of
+    `-χ²/2 + lps` and the least `χ²` per row, whatever the scale of `χ²`
+    (no underflow to -inf at 1e4, where every plain `exp(-χ²/2)` is 0), with
+    candidate priors that are not uniform."""
     import jax.numpy as jnp
     from jax.scipy.special import logsumexp
 
     rng = np.random.default_rng(5)
-    x = rng.normal(0, 30, (4, 7, 26))
-    x[1] += 1e4
-    x[2] -= 1e4
-    x[3, 0] = -np.inf
-    x[3, 1, :5] = -np.inf
-    got = np.asarray(inv_mod._lse(jnp.asarray(x), axis=2))
-    ref = np.asarray(logsumexp(jnp.asarray(x), axis=2))
-    np.testing.assert_allclose(got, ref, rtol=1e-13)
-    assert np.all(np.isneginf(got[3, 0])) and np.all(np.isfinite(got[:3]))
+    chi = rng.random((4, 7, 26)) * 60 * scale
+    chi[0, 0, 3] = 0.0
+    lps = np.log(rng.dirichlet(np.ones(26)))[None, None, :]
+    lk, cmin = inv_mod._log_sum_chi(jnp.asarray(chi), jnp.asarray(lps))
+    ref = logsumexp(jnp.asarray(-0.5 * chi + lps), axis=2)
+    np.testing.assert_allclose(np.asarray(lk), np.asarray(ref), rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(cmin), chi.min(axis=2), rtol=0)
+    assert np.all(np.isfinite(np.asarray(lk)))
 
 
 def test_band_weights_are_the_forward_models():
