@@ -359,6 +359,76 @@ def test_mixtures_reach_every_fold_and_the_config(table, bands, monkeypatch):
         evaluate_band_set(table, bands, noise=True, mixtures=2)
 
 
+def test_planck_and_shifts_reach_every_fold_and_the_config(table, bands, monkeypatch):
+    """`planck=True` and `peak_shifts` (`bandopt evaluate`'s defaults) put the
+    library's Planck spectra and shifted copies of the training direct LEDs
+    into every outer fold's prior, the config says so, the scored pixels are
+    still measured lamps' only; the KNN refuses both."""
+    seen = []
+    real = inv_mod.fit_inversion
+
+    def spy(*a, **kw):
+        inv = real(*a, **kw)
+        seen.append((kw["peak_shifts"], inv.prior.ids))
+        return inv
+
+    monkeypatch.setattr(inv_mod, "fit_inversion", spy)
+    res = evaluate_band_set(
+        table, bands, noise=True, estimator="inversion", planck=True,
+        peak_shifts=(-5.0, 5.0),
+    )
+    planck = [i for i in inv_mod.planck_lamps(table.wavelength_nm).ids]
+    assert res.config["modelled_in_prior"] == planck and len(planck) == 5
+    assert res.config["peak_shifts_nm"] == [-5.0, 5.0]
+    assert len(seen) == 3
+    for shifts, ids in seen:
+        assert shifts == (-5.0, 5.0)
+        assert set(planck) <= set(ids)
+        # each shifted copy is of a lamp in that fold's own prior
+        moved = [i for i in ids if i.startswith("shift:")]
+        assert all(i.split(":")[1].split("@")[0] in ids for i in moved)
+    assert any(i.startswith("shift:") for _, ids in seen for i in ids)
+    assert 0.0 <= res.level2.macro_f1 <= 1.0
+    for kw in ({"planck": True}, {"peak_shifts": (5.0,)}):
+        with pytest.raises(ValueError, match="planck, peak_shifts"):
+            evaluate_band_set(table, bands, noise=True, **kw)
+
+
+def test_cli_planck_and_shifts_are_for_the_inversion_only(capsys):
+    from bandopt.cli import main
+
+    argv = ["classify", "--bands", "sdgsat-1", "--scenarios", "quick"]
+    for flag in ("--planck", "--peak-shifts"):
+        assert main([*argv, flag, "on"]) == 2
+        assert f"{flag} on: only the prior of --estimator inversion" in (
+            capsys.readouterr().err
+        )
+
+
+@pytest.mark.parametrize("on", [True, False])
+def test_cli_passes_planck_and_shifts_through(on, monkeypatch, capsys):
+    """`bandopt classify --estimator inversion --planck on --peak-shifts on`
+    asks `evaluate_band_set` for the Planck spectra and the shifted LEDs of
+    `PEAK_SHIFTS_NM`; off (the default), for neither."""
+    import bandopt.classify
+    from bandopt.cli import main
+
+    asked = {}
+
+    def spy(*a, **kw):
+        asked.update(kw)
+        raise ValueError("spied")
+
+    monkeypatch.setattr(bandopt.classify, "evaluate_band_set", spy)
+    argv = ["classify", "--bands", "sdgsat-1", "--scenarios", "quick"]
+    argv += ["--estimator", "inversion", "--atmospheres", "none"]
+    if on:
+        argv += ["--planck", "on", "--peak-shifts", "on"]
+    assert main(argv) == 2 and "spied" in capsys.readouterr().err
+    assert asked["planck"] is on
+    assert tuple(asked["peak_shifts"]) == (inv_mod.PEAK_SHIFTS_NM if on else ())
+
+
 def test_cli_mixtures_is_for_the_inversion_only(capsys):
     from bandopt.cli import main
 

@@ -77,6 +77,8 @@ def evaluate_band_set(
     surface_mode: str = "unknown",
     moon_known: bool = False,
     mixtures: int = 0,
+    planck: bool = False,
+    peak_shifts: Sequence[float] = (),
 ) -> BandSetScores:
     """Outer-fold scores of one band set (or one band set per outer fold, a
     sequence, for bands searched inside each fold).
@@ -94,6 +96,10 @@ def evaluate_band_set(
     of fitting it (`evaluate_inversion`; inversion only). `mixtures`:
     same-class blends of its lamps in the inversion's prior, up to that many
     pairs per class (`evaluate_inversion`; inversion only, default 0).
+    `planck` (the library's modelled incandescent spectra) and
+    `peak_shifts` [nm] (shifted copies of its direct-emission LEDs) in the
+    inversion's prior: `bandopt evaluate`'s defaults (`evaluate_inversion`;
+    inversion only, default neither).
     With `modelled_per_class` > 0, `config` says `modelled_per_class` and
     the classes that got lamps in each outer fold (`modelled_lamps`); with
     the default 0 the result is byte for byte what it was before the option
@@ -133,6 +139,13 @@ def evaluate_band_set(
             surface_mode=surface_mode,
             moon_known=moon_known,
             mixtures=mixtures,
+            planck=planck,
+            peak_shifts=peak_shifts,
+        )
+    if planck or len(peak_shifts):
+        raise ValueError(
+            "planck, peak_shifts: modelled and shifted spectra go into the prior "
+            "of estimator 'inversion'; the KNN trains on measured lamps' scenes."
         )
     if mixtures:
         raise ValueError(

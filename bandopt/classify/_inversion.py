@@ -208,6 +208,8 @@ def evaluate_inversion(
     surface_mode: str = SURFACE_MODE,
     moon_known: bool = False,
     mixtures: int = 0,
+    planck: bool = False,
+    peak_shifts: Sequence[float] = (),
 ) -> BandSetScores:
     """Outer-fold classification scores of the inversion for one band set, a
     `BandSetScores` as from `evaluate_band_set` (see the module docstring).
@@ -229,7 +231,14 @@ def evaluate_inversion(
     pixel"` (default False: fitted, no such key, the config as before).
     `mixtures`: pairwise same-class blends of each prior's own lamps in the
     prior, up to that many pairs per class (`bandopt.inversion.mixture_lamps`;
-    default 0: none, no such key); `config["mixtures"]` says how many."""
+    default 0: none, no such key); `config["mixtures"]` says how many.
+    `planck`: the library's modelled incandescent spectra in every prior
+    (`bandopt.inversion.with_planck_lamps`; modelled, they train and never
+    score) and `peak_shifts` [nm]: copies of each prior's direct-emission
+    LEDs shifted by these (`fit_inversion(peak_shifts=)`), as `bandopt
+    evaluate` has by default; `config` then says `"modelled_in_prior"` (the
+    Planck ids) and `"peak_shifts_nm"` (defaults False and (): neither, no
+    such keys, the config as before)."""
     surface_mode = validate_method(surface_mode, inv_mod.SURFACE_MODES, "surface_mode")
     if modelled_per_class < 0:
         raise ValueError(f"modelled_per_class must be >= 0 (got {modelled_per_class}).")
@@ -246,6 +255,8 @@ def evaluate_inversion(
     lamps, always = table_lamps(table)
     cond = inversion_conditions(table)
     grid = table.wavelength_nm
+    if planck:
+        always = inv_mod.with_planck_lamps(always, grid)
     weights = inv_mod.band_weights_on(bands, grid)
     basis = _surface_basis(grid)
     lamp_ids = np.asarray(table.lamp_ids, object)
@@ -278,6 +289,7 @@ def evaluate_inversion(
             modelled_seed=seed,
             row_moon=None if row_moon is None else row_moon[kept],
             mixtures=mixtures,
+            peak_shifts=tuple(peak_shifts),
         )
         te = keep & table.rows_of_lamps(s.test)
         _never_scored(inv, lamp_ids[s.test])
@@ -364,6 +376,10 @@ def evaluate_inversion(
         config["moon"] = "known per pixel"
     if mixtures:  # likewise
         config["mixtures"] = int(mixtures)
+    if planck:  # likewise
+        config["modelled_in_prior"] = [i for i in always.ids if i.startswith("planck_")]
+    if len(peak_shifts):  # likewise
+        config["peak_shifts_nm"] = [float(d) for d in peak_shifts]
     if modelled_per_class:  # the default's config is as before: no such keys
         config["modelled_per_class"] = int(modelled_per_class)
         config["modelled_lamps"] = {

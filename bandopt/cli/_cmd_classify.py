@@ -85,6 +85,25 @@ def register(subparsers):
         "uses 50: see results/estimate_mix)",
     )
     p.add_argument(
+        "--planck",
+        choices=("on", "off"),
+        default="off",
+        help="inversion only: also put the library's modelled incandescent "
+        "spectra (Planck's law, 2400-3200 K) into its prior, as bandopt evaluate "
+        "does by default (default off: measured lamps only, as make "
+        "classify-partitions scored it; modelled spectra train, never score; "
+        "results/estimate_planck)",
+    )
+    p.add_argument(
+        "--peak-shifts",
+        choices=("on", "off"),
+        default="off",
+        help="inversion only: also put copies of each prior's direct-emission "
+        "LEDs shifted by +-2.5 to +-10 nm into it, as bandopt evaluate does by "
+        "default (default off, as make classify-partitions scored it; "
+        "results/estimate_shift)",
+    )
+    p.add_argument(
         "--no-noise",
         action="store_true",
         help="noise-free radiance (scenes deduplicated) instead of photon noise",
@@ -188,6 +207,7 @@ def plot_confusion(results, path, *, noise: bool, estimator: str = "knn") -> Non
 def run(args) -> int:
     import sys
 
+    from .. import inversion as inv_mod
     from ..classify import (
         TRAINING_SCENARIOS,
         available_atmospheres,
@@ -216,6 +236,13 @@ def run(args) -> int:
             f"--mixtures {args.mixtures}: blends go into the prior of --estimator "
             f"inversion only (got --estimator {args.estimator})."
         )
+    for opt in ("planck", "peak_shifts"):
+        if getattr(args, opt) == "on" and args.estimator != "inversion":
+            flag = "--" + opt.replace("_", "-")
+            raise ValueError(
+                f"{flag} on: only the prior of --estimator inversion holds "
+                f"modelled or shifted spectra (got --estimator {args.estimator})."
+            )
     if args.moon != "fitted" and args.estimator != "inversion":
         raise ValueError(
             f"--moon {args.moon}: only --estimator inversion is told the Moon "
@@ -245,6 +272,8 @@ def run(args) -> int:
             "surface_knowledge": args.surface_knowledge,
             "moon": None if knn else args.moon,
             "mixtures": None if knn else args.mixtures,
+            "planck": None if knn else args.planck,
+            "peak_shifts": None if knn else args.peak_shifts,
             "seed": args.seed,
             "n_scenes": table.n_rows,
             "n_lamps": len(table.lamp_ids),
@@ -265,6 +294,8 @@ def run(args) -> int:
                 surface_mode=args.surface_knowledge,
                 moon_known=args.moon == "known",
                 mixtures=args.mixtures,
+                planck=args.planck == "on",
+                peak_shifts=inv_mod.PEAK_SHIFTS_NM if args.peak_shifts == "on" else (),
                 **kw,
             )
         results.append((src, res))
@@ -301,6 +332,10 @@ def run(args) -> int:
         )
         if not knn and args.mixtures:
             extra += f", {args.mixtures} blend pairs per class in the prior"
+        if not knn and args.planck == "on":
+            extra += ", modelled incandescent (Planck) spectra in the prior"
+        if not knn and args.peak_shifts == "on":
+            extra += ", shifted direct-emission LEDs in the prior"
         if args.modelled_per_class:
             extra += f", {args.modelled_per_class} modelled lamps per rare class"
         print(head + extra + ")")
