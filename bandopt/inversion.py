@@ -93,6 +93,7 @@ from .estimate import (
 )
 from .folds import class_balanced_weights, stratified_lamp_folds
 from .forward import band_weights_on as forward_band_weights, dense_spectra
+from .names import validate_method
 from .photometry import G_CAP, K_M_LM_PER_W, ler
 from .scene import build_scenarios
 
@@ -2259,6 +2260,7 @@ def cross_validate(
     seed: int = 0,
     modelled_per_class: int = 0,
     modelled_classes: Sequence[str] = MODELLED_CLASSES,
+    scored: str = "test",
 ) -> list[dict]:
     """Score estimators on the context's outer folds (lamp-grouped, the same
     folds for every estimator). One record per (estimator, surface mode, outer
@@ -2280,7 +2282,14 @@ def cross_validate(
     (`modelled_per_class`: N for a `MODELLED_ESTIMATORS` row, 0 otherwise)
     and those rows list the classes that got them in that fold
     (`modelled_classes_added`); with the default 0 the records are as
-    before (no such keys)."""
+    before (no such keys).
+
+    `scored`: "test" (default: the outer fold's held-out lamps) or "train"
+    (its training lamps, which are in the prior: how well the estimator does
+    on a lamp the library holds, the in-library bound of a held-out score;
+    records then say `"scored": "train"`, and the never-scored check, which
+    would refuse them, is not made)."""
+    scored = validate_method(scored, ("test", "train"), "scored")
     bad = [e for e in estimators if e in MODELLED_ESTIMATORS]
     if bad and modelled_per_class < 1:
         raise ValueError(
@@ -2300,7 +2309,8 @@ def cross_validate(
     for k in folds:
         s = ctx.splits[k]
         inner = list(s.inner)
-        rows = np.flatnonzero(np.isin(row_lamp, s.test))
+        score_ids = s.test if scored == "test" else s.train
+        rows = np.flatnonzero(np.isin(row_lamp, score_ids))
         preds, model_info = {}, {}
         for name in estimators:
             if name in (
@@ -2429,9 +2439,9 @@ def cross_validate(
         for (name, mode), (p, inv) in preds.items():
             res = p if isinstance(p, InversionResult) else None
             est = res.estimate if res is not None else p
-            if inv is not None:
+            if inv is not None and scored == "test":
                 _check_never_scored(inv, [lamps.ids[i] for i in s.test])
-            for lamp in s.test:
+            for lamp in score_ids:
                 sel = row_lamp[rows] == lamp
                 e = est[sel]
                 t = truth[lamp]
@@ -2445,6 +2455,8 @@ def cross_validate(
                     "rows": int(sel.sum()),
                     "out_of_range": int(_out_of_range(e)),
                 }
+                if scored == "train":
+                    rec["scored"] = "train"
                 for m, name_m in enumerate(METRICS):
                     if not valid[lamp, m]:
                         rec[name_m] = None

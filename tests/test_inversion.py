@@ -186,6 +186,29 @@ def test_fit_calibrates_and_flags_non_lamp_pixels():
     )
 
 
+def test_cross_validate_scores_training_lamps_when_asked():
+    """`scored="train"` scores the outer fold's training lamps (in the prior:
+    the in-library bound), says so in every record, and does better on them
+    than on the held-out lamps; anything else is refused."""
+    from bandopt.search import get_context
+
+    ctx = get_context("tiny", None, 0, "none")
+    lamps, *_ = inv_mod.context_setup(ctx)
+    s = ctx.splits[0]
+    kw = dict(estimators=("inversion",), folds=[0])
+    held = inv_mod.cross_validate(ctx, FIVE, **kw)
+    own = inv_mod.cross_validate(ctx, FIVE, scored="train", **kw)
+    assert sorted(r["lamp"] for r in own) == sorted(lamps.ids[i] for i in s.train)
+    assert sorted(r["lamp"] for r in held) == sorted(lamps.ids[i] for i in s.test)
+    assert all(r["scored"] == "train" for r in own)
+    assert all("scored" not in r for r in held)
+    assert all(r["out_of_range"] == 0 for r in own)
+    err = [np.mean([r["LER"] for r in x if r["LER"] is not None]) for x in (own, held)]
+    assert err[0] < 0.1 * err[1]
+    with pytest.raises(ValueError, match="scored"):
+        inv_mod.cross_validate(ctx, FIVE, scored="inner", **kw)
+
+
 def test_summaries_are_class_balanced_and_paired_by_partition():
     recs = []
     for p, (a, b) in enumerate([(1.0, 3.0), (2.0, 6.0)]):
