@@ -2250,6 +2250,32 @@ def measured_surfaces(row_types, basis: SurfaceBasis, *, seed: int = 0):
     return surface_from_sentinel2(obs, basis)
 
 
+def _smaller_library(split, level2, fraction: float, seed: int, fold: int):
+    """`split` (an outer fold) with `fraction` of its training lamps of each
+    level-2 class in `level2` (at least one), drawn with seed `(seed, fold)`,
+    and its inner folds restricted to them (an inner fold left without
+    training or validation lamps is dropped). Its test lamps are unchanged."""
+    rng = np.random.default_rng([seed, fold, 7919])
+    train = np.asarray(split.train)
+    cls = np.asarray(level2, object)[train]
+    keep = []
+    for c in sorted(set(cls)):
+        ids = train[cls == c]
+        n = max(1, round(fraction * ids.size))
+        keep += rng.choice(ids, size=n, replace=False).tolist()
+    kept = np.sort(np.asarray(keep, train.dtype))
+    inner = tuple(
+        (tr[np.isin(tr, kept)], va[np.isin(va, kept)])
+        for tr, va in (tuple(np.asarray(x) for x in pair) for pair in split.inner)
+    )
+    inner = tuple((tr, va) for tr, va in inner if tr.size and va.size)
+    if not inner:
+        raise ValueError(
+            f"train_fraction {fraction}: outer fold {fold} keeps no inner fold."
+        )
+    return dataclasses.replace(split, train=kept, inner=inner)
+
+
 def cross_validate(
     ctx,
     bands,
@@ -2261,6 +2287,7 @@ def cross_validate(
     modelled_per_class: int = 0,
     modelled_classes: Sequence[str] = MODELLED_CLASSES,
     scored: str = "test",
+    train_fraction: float = 1.0,
 ) -> list[dict]:
     """Score estimators on the context's outer folds (lamp-grouped, the same
     folds for every estimator). One record per (estimator, surface mode, outer
@@ -2288,8 +2315,17 @@ def cross_validate(
     (its training lamps, which are in the prior: how well the estimator does
     on a lamp the library holds, the in-library bound of a held-out score;
     records then say `"scored": "train"`, and the never-scored check, which
-    would refuse them, is not made)."""
+    would refuse them, is not made).
+
+    `train_fraction` < 1: each outer fold trains on that fraction of its
+    training lamps of each level-2 class (at least one; seeded by `seed` and
+    the fold), its inner folds on their share of them: a smaller library, to
+    see how the held-out error falls with the library's size (the
+    always-in-prior lamps stay; records then say `train_fraction` and
+    `train_lamps`). Default 1: all, no such keys."""
     scored = validate_method(scored, ("test", "train"), "scored")
+    if not 0.0 < train_fraction <= 1.0:
+        raise ValueError(f"train_fraction {train_fraction}: must be in (0, 1].")
     bad = [e for e in estimators if e in MODELLED_ESTIMATORS]
     if bad and modelled_per_class < 1:
         raise ValueError(
@@ -2308,6 +2344,8 @@ def cross_validate(
     augmented: dict = {}  # per outer fold, shared by ridge+models and kernel+models
     for k in folds:
         s = ctx.splits[k]
+        if train_fraction < 1.0:
+            s = _smaller_library(s, lamps.level2, train_fraction, seed, k)
         inner = list(s.inner)
         score_ids = s.test if scored == "test" else s.train
         rows = np.flatnonzero(np.isin(row_lamp, score_ids))
@@ -2457,6 +2495,9 @@ def cross_validate(
                 }
                 if scored == "train":
                     rec["scored"] = "train"
+                if train_fraction < 1.0:
+                    rec["train_fraction"] = float(train_fraction)
+                    rec["train_lamps"] = len(s.train)
                 for m, name_m in enumerate(METRICS):
                     if not valid[lamp, m]:
                         rec[name_m] = None

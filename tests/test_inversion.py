@@ -209,6 +209,49 @@ def test_cross_validate_scores_training_lamps_when_asked():
         inv_mod.cross_validate(ctx, FIVE, scored="inner", **kw)
 
 
+def test_smaller_library_keeps_a_share_of_each_class():
+    """`_smaller_library`: about `fraction` of each class's training lamps (at
+    least one), the inner folds restricted to them, the test lamps unchanged,
+    the same draw for the same seed and fold, another for another fold."""
+    from bandopt.folds import NestedSplit
+
+    level2 = ["a"] * 8 + ["b"] * 4 + ["c"]
+    classes = [*level2, "a", "b"]  # the two test lamps' too
+    train = np.arange(13)
+    inner = ((np.arange(0, 13, 2), np.arange(1, 13, 2)),
+             (np.arange(1, 13, 2), np.arange(0, 13, 2)))  # fmt: skip
+    split = NestedSplit(0, train, np.array([13, 14]), inner)
+    small = inv_mod._smaller_library(split, classes, 0.5, 0, 0)
+    kept = np.asarray(level2, object)[small.train]
+    assert (kept == "a").sum() == 4 and (kept == "b").sum() == 2
+    assert (kept == "c").sum() == 1  # at least one
+    assert np.array_equal(small.test, split.test)
+    for tr, va in small.inner:
+        assert set(tr) | set(va) <= set(small.train)
+    again = inv_mod._smaller_library(split, classes, 0.5, 0, 0)
+    assert np.array_equal(again.train, small.train)
+    other = [
+        inv_mod._smaller_library(split, classes, 0.5, 0, f).train
+        for f in range(1, 6)
+    ]
+    assert any(not np.array_equal(o, small.train) for o in other)
+
+
+def test_cross_validate_trains_on_a_smaller_library_when_asked():
+    from bandopt.search import get_context
+
+    ctx = get_context("tiny", None, 0, "none")
+    kw = dict(estimators=("inversion",), folds=[0])
+    full = inv_mod.cross_validate(ctx, FIVE, **kw)
+    half = inv_mod.cross_validate(ctx, FIVE, train_fraction=0.5, **kw)
+    assert [r["lamp"] for r in half] == [r["lamp"] for r in full]
+    n = len(ctx.splits[0].train)
+    assert all(r["train_fraction"] == 0.5 and r["train_lamps"] < n for r in half)
+    assert all("train_fraction" not in r for r in full)
+    with pytest.raises(ValueError, match="train_fraction"):
+        inv_mod.cross_validate(ctx, FIVE, train_fraction=0.0, **kw)
+
+
 def test_summaries_are_class_balanced_and_paired_by_partition():
     recs = []
     for p, (a, b) in enumerate([(1.0, 3.0), (2.0, 6.0)]):

@@ -1,0 +1,95 @@
+"""`experiments/estimate_library.py`: which records are paired (the same
+lamps, held out and in library), the summary and README text it builds from
+per-lamp records, and the committed section (the run is `make
+estimate-library`)."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+from bandopt import inversion as inv_mod
+from experiments import estimate_library as el
+
+
+def _rec(p, lamp, cls, scored, ler, band_set="recommended"):
+    return {"band_set": band_set, "estimator": el.DEFAULT, "surface": "unknown",
+            "partition": p, "fold": 0 if scored == "train" else 1, "lamp": lamp,
+            "level2": cls, "level1": "x", "out_of_range": 0, "scored": scored,
+            "LER": ler, "G": 0.2 if scored == "test" else 0.05, "CCT": 300.0,
+            "CCT_mired": 30.0, "LER_covered": 1.0, "G_covered": 1.0,
+            "CCT_covered": 1.0, "level1_correct": 1.0}  # fmt: skip
+
+
+def _records():
+    """Two partitions, two classes; lamp `c` of each class is scored in
+    library (fold 0 trains on it) and held out, lamp `d` held out only; an
+    SDGSAT-1 copy 4 lm/W worse."""
+    recs = []
+    for p in (0, 1):
+        for cls, base in (("hps", 8.0), ("led_warm", 12.0)):
+            recs += [
+                _rec(p, f"{cls}_c", cls, "test", base + p),
+                _rec(p, f"{cls}_d", cls, "test", 100.0),
+                _rec(p, f"{cls}_c", cls, "train", 2.0),
+            ]
+    return recs + [
+        {**r, "band_set": "sdgsat-1", "LER": r["LER"] + 4.0} for r in recs
+    ]
+
+
+def test_relabel_pairs_the_same_lamps():
+    out = el.relabel(_records())
+    held = {(r["partition"], r["band_set"], r["lamp"]) for r in out
+            if r["estimator"] == el.HELD}  # fmt: skip
+    own = {(r["partition"], r["band_set"], r["lamp"]) for r in out
+           if r["estimator"] == el.OWN}  # fmt: skip
+    assert held == own and len(own) == 8  # lamp c of 2 classes, 2 partitions, 2 sets
+    assert all(r["scored"] == "train" for r in out if r["estimator"] == el.OWN)
+    assert sum(r["estimator"] == el.DEFAULT for r in out) == 16  # every held-out one
+
+
+def test_summary_and_text():
+    s = el.summarise(_records(), 2)
+    rows = {(r["band_set"], r["estimator"]): r for r in s["rows"]}
+    # held out, the in-library lamps: class-balanced (8 + 12) / 2 + partition
+    assert rows[("recommended", el.HELD)]["LER"] == pytest.approx(10.5)
+    assert rows[("recommended", el.OWN)]["LER"] == pytest.approx(2.0)
+    # all held-out lamps: the d lamps at 100 count too
+    assert rows[("recommended", el.DEFAULT)]["LER"] == pytest.approx(55.25)
+    (p,) = [x for x in s["paired"] if x["vs"] == el.HELD and
+            x["band_set"] == "recommended"]  # fmt: skip
+    assert p["LER_diff"] == pytest.approx(-8.5) and p["LER_diff_sd"] == pytest.approx(
+        2**0.5 / 2
+    )
+    ref = [x for x in s["paired"] if x["vs"] == "recommended"]
+    assert {x["estimator"] for x in ref} == {el.HELD, el.OWN}
+    held_ref = [x for x in ref if x["estimator"] == el.HELD]
+    assert all(x["LER_diff"] == pytest.approx(4.0) for x in held_ref)
+    assert s["modelled_lamps_used"] is True
+    assert s["scored_lamps"] == "measured lamps only"
+    text = el.readme_text(s)
+    assert "| recommended | in library | 2 | 2.0 ± 0.0 | 0.050 ± 0.000 |" in text
+    assert "| recommended | -8.5 ± 0.7 | -0.150 ± 0.000 |" in text
+    assert "| sdgsat-1 − recommended | held out | +4.0 ± 0.0 |" in text
+    # LER and G meet the goal in library, CCT (300 K) does not
+    assert "(met for LER, G); held out, the same lamps: 10.5 / 0.200 / 300 K" in text
+    assert "81% of the LER error" in text
+    assert "hps (1) 8.5 → 2.0 lm/W" in text  # one lamp id, two partitions
+
+
+def test_estimator_is_evaluates():
+    assert el.DEFAULT == inv_mod.DEFAULT_ESTIMATOR
+    assert el.BAND_SETS == ("recommended", "sdgsat-1", "nightsat")
+
+
+def test_committed_section_is_generated_from_the_committed_summary():
+    results = Path(__file__).resolve().parents[1] / "results"
+    summary = json.loads((results / "estimate_library" / "summary.json").read_text())
+    readme = (results / "README.md").read_text()
+    start, end = "<!-- estimate-library:start -->", "<!-- estimate-library:end -->"
+    section = readme[readme.index(start) + len(start) : readme.index(end)]
+    assert section.strip() == el.readme_text(summary).strip()
+    assert summary["modelled_lamps_used"] is True
+    for row in summary["rows"]:
+        assert row["out_of_range"] == 0 and row["partitions"] == 4
