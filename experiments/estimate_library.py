@@ -19,11 +19,19 @@ Their difference is what a lamp the library lacks costs; a library that
 held every lamp kind a user meets would bring the held-out error down to
 the in-library one, no better. Modelled (Planck) spectra train, never score.
 
+How fast the held-out error falls with the library's size: the same folds
+with each outer fold trained on `FRACTIONS` of its training lamps per class
+(`cross_validate(train_fraction=)`; our bands), against the whole library,
+and the size at which `E(N) = E_lib + a N^-b` (`E_lib` the in-library error,
+`a`, `b` fitted to the measured sizes) would reach the goal: an
+extrapolation, said as one.
+
     python -m experiments.estimate_library [--partitions 4] [--out DIR]
         [--resume] [--only-partitions P ...]
 
 Writes `records.jsonl` (one record per scored lamp; `scored`: "test" or
-"train"), `summary.json`, `errors.png`, `manifest.json` and the
+"train"; `train_fraction` on the smaller libraries' records),
+`summary.json`, `errors.png`, `library_size.png`, `manifest.json` and the
 `estimate-library` section of `results/README.md` (default output only).
 """
 
@@ -54,22 +62,38 @@ DIGITS = {"LER": 1, "G": 3, "CCT": 0, "CCT_mired": 1, "LER_covered": 3,
 GOAL = {"LER": 5.0, "G": 0.10, "CCT": 200.0}
 """Issue 12's goal for pan + 5 bands, surface unknown."""
 HEADING = "## What a lamp the library lacks costs"
+FRACTIONS = (0.25, 0.5, 0.75)
+"""Shares of each outer fold's training lamps (per class) of the smaller
+libraries (our bands; the whole library is the held-out run)."""
 
 
-def unit(p: int, name: str) -> list[dict]:
+def unit_key(r: dict) -> tuple:
+    """The unit a record belongs to: (partition, band set, library share)."""
+    return (r["partition"], r["band_set"], r.get("train_fraction", 1.0))
+
+
+def unit(p: int, name: str, fraction: float = 1.0) -> list[dict]:
     """Records of one (partition, band set): held-out scores of every outer
-    fold and in-library scores of fold `FOLD`'s training lamps."""
+    fold and in-library scores of fold `FOLD`'s training lamps; with
+    `fraction` < 1, only held-out scores, each fold trained on that share of
+    its training lamps."""
     from bandopt import inversion as inv_mod
     from bandopt.search import get_context
 
     ctx = get_context("search", None, p, "auto")
     bands = band_set(name)
-    held = inv_mod.cross_validate(ctx, bands, estimators=(DEFAULT,), seed=p)
+    held = inv_mod.cross_validate(
+        ctx, bands, estimators=(DEFAULT,), seed=p, train_fraction=fraction
+    )
+    if fraction < 1.0:
+        for r in held:
+            r.update(scored="test", partition=p, band_set=name)
+        return held
     own = inv_mod.cross_validate(
         ctx, bands, estimators=(DEFAULT,), seed=p, folds=[FOLD], scored="train"
     )
-    for r in held:
-        r["scored"] = "test"
+    for r in held:  # the training lamps of its fold (the smaller ones say it)
+        r.update(scored="test", train_lamps=len(ctx.splits[r["fold"]].train))
     for r in held + own:
         r.update(partition=p, band_set=name)
     return held + own
@@ -79,6 +103,7 @@ def relabel(records: list[dict]) -> list[dict]:
     """Copies of `records` labelled for the summary: every held-out record as
     `DEFAULT`, the held-out records of lamps scored in library (same
     partition and band set) also as `HELD`, the in-library ones as `OWN`."""
+    records = [r for r in records if "train_fraction" not in r]
     own = {
         (r["partition"], r["band_set"], r["lamp"])
         for r in records
@@ -93,6 +118,63 @@ def relabel(records: list[dict]) -> list[dict]:
         if (r["partition"], r["band_set"], r["lamp"]) in own:
             out.append({**r, "estimator": HELD})
     return out
+
+
+def library_size(records: list[dict], goal=GOAL) -> dict:
+    """Our bands' held-out error against the library's size: per share of
+    the training lamps (1: the whole library), the class-balanced MAE (mean
+    ± SD over partitions) and the mean number of training lamps per outer
+    fold; per metric the fit of `E(N) = E_lib + a N^-b` to the mean errors
+    (`E_lib`: the in-library error; least squares on `log(E - E_lib)`
+    against `log N`, sizes whose error is not above `E_lib` left out) and
+    the number of training lamps at which it reaches the goal (None when
+    `E_lib` is not below the goal, or fewer than two sizes are usable, or
+    the fit does not fall)."""
+    import numpy as np
+
+    from bandopt import inversion as inv_mod
+
+    ours = [r for r in records if r["band_set"] == "recommended"]
+    held = [{**r, "estimator": str(r.get("train_fraction", 1.0))} for r in ours
+            if r["scored"] == "test"]  # fmt: skip
+    rows = inv_mod.summarise(held, keys=("estimator",))
+    sizes = []
+    for row in sorted(rows, key=lambda r: float(r["estimator"])):
+        f = float(row["estimator"])
+        n_train = [
+            r["train_lamps"] for r in held
+            if r["estimator"] == row["estimator"] and "train_lamps" in r
+        ]  # fmt: skip
+        n_lamps = float(np.mean(n_train)) if n_train else None
+        cols = [k for m in ("LER", "G", "CCT")
+                for k in (m, f"{m}_sd", f"{m}_per_partition")]  # fmt: skip
+        sizes.append(
+            {"fraction": f, "train_lamps": n_lamps, **{k: row.get(k) for k in cols}}
+        )
+    own = inv_mod.summarise(
+        [{**r, "estimator": OWN} for r in ours if r["scored"] == "train"],
+        keys=("estimator",),
+    )
+    floor = {m: own[0].get(m) for m in ("LER", "G", "CCT")} if own else {}
+    fits = {}
+    for m in ("LER", "G", "CCT"):
+        e_lib = floor.get(m)
+        pts = [(s["train_lamps"], s[m]) for s in sizes
+               if e_lib is not None and s[m] is not None and s["train_lamps"]
+               and s[m] > e_lib]  # fmt: skip
+        fit = {"E_lib": e_lib, "sizes_used": len(pts), "a": None, "b": None,
+               "lamps_for_goal": None}  # fmt: skip
+        if len(pts) >= 2:
+            x = np.log([p[0] for p in pts])
+            y = np.log([p[1] - e_lib for p in pts])
+            slope, icpt = np.polyfit(x, y, 1)
+            fit["a"], fit["b"] = float(np.exp(icpt)), float(-slope)
+            if e_lib < goal[m] and fit["b"] > 0:
+                fit["lamps_for_goal"] = float(
+                    (fit["a"] / (goal[m] - e_lib)) ** (1.0 / fit["b"])
+                )
+        fits[m] = fit
+    return {"sizes": sizes, "fit": fits}
 
 
 def summarise(records: list[dict], partitions: int) -> dict:
@@ -120,6 +202,7 @@ def summarise(records: list[dict], partitions: int) -> dict:
         "rows": rows,
         "paired": paired,
         "by_class": by_class(recs, (HELD, OWN)),
+        "library_size": library_size(records),
         "bands": {"recommended": "results/search/recommended_bands.json"},
         "scored_lamps": "measured lamps only",
         "modelled_lamps_used": True,
@@ -210,6 +293,46 @@ def readme_text(summary: dict) -> str:
             + ", ".join(f"{share[m]:.0%} of the {m} error" for m in GOAL)
             + ".",
         ]
+    size = summary.get("library_size") or {}
+    if len(size.get("sizes", [])) > 1:
+        lines += [
+            "",
+            "Our bands' held-out error against the library's size (each outer fold "
+            "trained on a share of its training lamps per class, the same folds "
+            "and test lamps; `library_size.png`):",
+            "",
+            "| training lamps | share | LER [lm/W] | G | CCT [K] |",
+            "|---|---|---|---|---|",
+        ]
+        for z in size["sizes"]:
+            n = "n/a" if z["train_lamps"] is None else f"{z['train_lamps']:.0f}"
+            lines.append(
+                f"| {n} | {z['fraction']:.0%} | {_fmt(z, 'LER', 1)} | "
+                f"{_fmt(z, 'G', 3)} | {_fmt(z, 'CCT', 0)} |"
+            )
+        said = []
+        for m, unit in (("LER", " lm/W"), ("G", ""), ("CCT", " K")):
+            f = size["fit"][m]
+            if f["E_lib"] is None:
+                continue
+            if f["E_lib"] >= summary["goal"][m]:
+                said.append(
+                    f"{m}: the in-library error ({f['E_lib']:.3g}{unit}) is not "
+                    "below the goal, so no library size reaches it"
+                )
+            elif f["lamps_for_goal"] is None:
+                said.append(f"{m}: the measured sizes give no falling fit")
+            else:
+                said.append(
+                    f"{m}: E = {f['E_lib']:.3g}{unit} + {f['a']:.3g} N^-{f['b']:.2f}"
+                    f", the goal at about {f['lamps_for_goal']:,.0f} training lamps"
+                )
+        lines += [
+            "",
+            "Fitted to the mean errors with the in-library error as the floor, "
+            "E(N) = E_lib + a N^-b (an extrapolation beyond the sizes measured, "
+            "with lamps as varied as this library's): " + "; ".join(said) + ".",
+        ]
     classes = summary.get("by_class") or {}
     if classes.get(HELD) and classes.get(OWN):
         cells = []
@@ -227,6 +350,39 @@ def readme_text(summary: dict) -> str:
             "lamps per class), held out → in library: " + "; ".join(cells) + ".",
         ]
     return "\n".join(lines) + "\n"
+
+
+def size_figure(summary: dict, path: Path) -> None:
+    """Our bands' held-out error against the number of training lamps, with
+    the in-library error and the goal as lines, one panel per metric."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    size = summary["library_size"]
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.6))
+    for ax, (m, unit) in zip(
+        axes, (("LER", "lm/W"), ("G", "1"), ("CCT", "K")), strict=True
+    ):
+        z = [x for x in size["sizes"] if x["train_lamps"] and x[m] is not None]
+        ax.errorbar([x["train_lamps"] for x in z], [x[m] for x in z],
+                    yerr=[x[f"{m}_sd"] or 0.0 for x in z], marker="o", capsize=3,
+                    label="held out")  # fmt: skip
+        f = size["fit"][m]
+        if f["E_lib"] is not None:
+            ax.axhline(f["E_lib"], color="C2", ls="--", label="in library")
+        ax.axhline(summary["goal"][m], color="C3", ls=":", label="goal")
+        ax.set_xlabel("training lamps per outer fold")
+        ax.set_ylabel(f"class-balanced MAE {m} [{unit}]")
+        ax.set_ylim(bottom=0)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle("Our bands, evaluate's estimator: held-out error against the "
+                 "library's size", fontsize=10)  # fmt: skip
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
 
 
 def main(argv=None) -> int:
@@ -267,25 +423,28 @@ def main(argv=None) -> int:
     out = Path(args.out or OUT)
     out.mkdir(parents=True, exist_ok=True)
     rec_path = out / "records.jsonl"
-    records, done = load_records(rec_path, keep=args.resume, say=log)
+    records, _ = load_records(rec_path, keep=args.resume, say=log)
+    done = {unit_key(r) for r in records}
     t0 = time.time()
-    units = [(p, b) for p in only for b in BAND_SETS]
-    for j, (p, name) in enumerate(units):
-        if (p, name) in done:
+    units = [(p, b, 1.0) for p in only for b in BAND_SETS]
+    units += [(p, "recommended", f) for p in only for f in FRACTIONS]
+    for j, (p, name, f) in enumerate(units):
+        if (p, name, f) in done:
             continue
         t1 = time.time()
-        recs = unit(p, name)
+        recs = unit(p, name, f)
         with rec_path.open("a") as fh:  # a finished unit is kept
             for r in recs:
                 fh.write(json.dumps(r) + "\n")
         records += recs
         log(
-            f"partition {p}, {name}: {time.time() - t1:.0f} s "
+            f"partition {p}, {name}, library share {f:g}: {time.time() - t1:.0f} s "
             f"({j + 1}/{len(units)} units, {time.time() - t0:.0f} s)"
         )
     summary = summarise(records, args.partitions)
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     figure(summary, out / "errors.png")
+    size_figure(summary, out / "library_size.png")
     if args.out is None:
         update_readme_section("estimate-library", readme_text(summary), heading=HEADING)
     write_manifest(
@@ -297,6 +456,7 @@ def main(argv=None) -> int:
             "band_sets": list(BAND_SETS),
             "estimator": DEFAULT,
             "fold_in_library": FOLD,
+            "library_fractions": [*FRACTIONS, 1.0],
             "scored_lamps": "measured lamps only",
             "training_lamps": "measured lamps, their same-class mixtures, "
             "wavelength-shifted copies of direct-emission LEDs and the library's "

@@ -78,6 +78,36 @@ def test_summary_and_text():
     assert "hps (1) 8.5 → 2.0 lm/W" in text  # one lamp id, two partitions
 
 
+def test_library_size_fit_recovers_a_known_law():
+    """Held-out errors that follow E(N) = 2 + 10 N^-0.5 exactly above an
+    in-library error of 2: the fit gives a = 10, b = 0.5 and the goal
+    (5 lm/W) at (10 / 3)^2 training lamps; G's in-library error above its
+    goal: no size reaches it; the README says both."""
+    recs = []
+    for p in (0, 1):
+        for f, n in ((0.25, 16), (0.5, 36), (1.0, 100)):
+            r = _rec(p, "hps_c", "hps", "test", 2.0 + 10.0 / n**0.5)
+            r.update(train_lamps=n, G=0.5)
+            if f < 1.0:
+                r["train_fraction"] = f
+            recs.append(r)
+        recs.append({**_rec(p, "hps_c", "hps", "train", 2.0), "G": 0.2})
+    size = el.library_size(recs)
+    assert [z["fraction"] for z in size["sizes"]] == [0.25, 0.5, 1.0]
+    assert [z["train_lamps"] for z in size["sizes"]] == [16, 36, 100]
+    fit = size["fit"]["LER"]
+    assert fit["a"] == pytest.approx(10.0) and fit["b"] == pytest.approx(0.5)
+    assert fit["lamps_for_goal"] == pytest.approx((10.0 / 3.0) ** 2)
+    assert size["fit"]["G"]["lamps_for_goal"] is None  # 0.2 in library > 0.10
+    s = el.summarise(recs, 2)
+    text = el.readme_text(s)
+    assert "| 16 | 25% | 4.5 ± 0.0 |" in text
+    assert "LER: E = 2 lm/W + 10 N^-0.50, the goal at about 11 training lamps" in text
+    assert "G: the in-library error (0.2) is not below the goal" in text
+    # the smaller libraries' records are not paired with the in-library ones
+    assert all(r.get("train_fraction") is None for r in el.relabel(recs))
+
+
 def test_estimator_is_evaluates():
     assert el.DEFAULT == inv_mod.DEFAULT_ESTIMATOR
     assert el.BAND_SETS == ("recommended", "sdgsat-1", "nightsat")
