@@ -35,14 +35,13 @@ Writes `records.jsonl` (one record per scored lamp; `scored`: "test" or
 `estimate-library` section of `results/README.md` (default output only).
 """
 
-import argparse
 import json
 import time
 from pathlib import Path
 
 from experiments.estimate import _fmt, band_set, diff_cells, load_records
 from experiments.estimate_defaults import DEFAULT
-from experiments.estimate_mix import UNKNOWN_ONLY, figure, log
+from experiments.estimate_mix import UNKNOWN_ONLY, figure, log, partition_args
 from experiments.estimate_shift import by_class
 
 
@@ -284,9 +283,7 @@ def readme_text(summary: dict) -> str:
             f"Our bands in library: {own['LER']:.1f} lm/W, G {own['G']:.3f}, "
             f"CCT {own['CCT']:.0f} K against the goal {goal['LER']:g} / "
             f"{goal['G']:g} / {goal['CCT']:g} K ("
-            + (
-                "met for " + ", ".join(met) if met else "met for none of them"
-            )
+            + ("met for " + ", ".join(met) if met else "met for none of them")
             + "); held out, the same lamps: "
             f"{held['LER']:.1f} / {held['G']:.3f} / {held['CCT']:.0f} K. The "
             "lamp's absence from the library is "
@@ -386,33 +383,7 @@ def size_figure(summary: dict, path: Path) -> None:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--partitions", type=int, default=4, help="lamp partitions")
-    ap.add_argument("--out", default=None, help=f"output (default {OUT})")
-    ap.add_argument(
-        "--resume",
-        action="store_true",
-        help="keep finished (partition, band set) units of records.jsonl",
-    )
-    ap.add_argument(
-        "--only-partitions",
-        type=int,
-        nargs="+",
-        default=None,
-        metavar="P",
-        help="compute only these partitions' units (to run partitions in "
-        "parallel processes with their own --out; concatenate their "
-        "records.jsonl and summarise with --resume)",
-    )
-    args = ap.parse_args(argv)
-    if args.partitions < 1:
-        ap.error("--partitions must be >= 1.")
-    only = args.only_partitions
-    if only is not None and any(not 0 <= p < args.partitions for p in only):
-        ap.error(f"--only-partitions {only}: each must be in 0..{args.partitions - 1}.")
-    if only is not None and args.out is None:
-        ap.error("--only-partitions needs its own --out (a partial summary).")
-    only = range(args.partitions) if only is None else only
+    args, only = partition_args(argv, __doc__.splitlines()[0], OUT, unseen=False)
 
     from bandopt._config import configure
 

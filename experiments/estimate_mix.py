@@ -345,19 +345,20 @@ def manifest_config(study: Study, partitions: int) -> dict:
     }
 
 
-def main(argv=None, study: Study | None = None) -> int:
-    study = Study() if study is None else study
-    ap = argparse.ArgumentParser(
-        description=study.description or __doc__.splitlines()[0]
-    )
+def partition_args(argv, description: str, out: str, unseen: bool = True):
+    """The command line of a partitioned, resumable study: `--partitions`,
+    `--out` (default `out`), `--resume`, `--only-partitions` and, with
+    `unseen`, `--no-unseen`; (args, the partitions to compute)."""
+    ap = argparse.ArgumentParser(description=description)
     ap.add_argument("--partitions", type=int, default=4, help="lamp partitions")
-    ap.add_argument("--out", default=None, help=f"output (default {study.out})")
+    ap.add_argument("--out", default=None, help=f"output (default {out})")
     ap.add_argument(
         "--resume",
         action="store_true",
         help="keep finished (partition, band set) units of records.jsonl",
     )
-    ap.add_argument("--no-unseen", action="store_true", help="skip unseen types")
+    if unseen:
+        ap.add_argument("--no-unseen", action="store_true", help="skip unseen types")
     ap.add_argument(
         "--only-partitions",
         type=int,
@@ -376,7 +377,14 @@ def main(argv=None, study: Study | None = None) -> int:
         ap.error(f"--only-partitions {only}: each must be in 0..{args.partitions - 1}.")
     if only is not None and args.out is None:
         ap.error("--only-partitions needs its own --out (a partial summary).")
-    only = range(args.partitions) if only is None else only
+    return args, range(args.partitions) if only is None else only
+
+
+def main(argv=None, study: Study | None = None) -> int:
+    study = Study() if study is None else study
+    args, only = partition_args(
+        argv, study.description or __doc__.splitlines()[0], study.out
+    )
 
     from bandopt._config import configure
 

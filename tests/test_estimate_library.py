@@ -33,9 +33,7 @@ def _records():
                 _rec(p, f"{cls}_d", cls, "test", 100.0),
                 _rec(p, f"{cls}_c", cls, "train", 2.0),
             ]
-    return recs + [
-        {**r, "band_set": "sdgsat-1", "LER": r["LER"] + 4.0} for r in recs
-    ]
+    return recs + [{**r, "band_set": "sdgsat-1", "LER": r["LER"] + 4.0} for r in recs]
 
 
 def test_relabel_pairs_the_same_lamps():

@@ -116,12 +116,18 @@ def test_resumable_records_keep_finished_units_and_drop_a_torn_line(tmp_path):
     assert not path.exists()
 
 
-def test_only_partitions_is_checked_before_any_work(capsys):
-    from experiments import estimate_mix
+@pytest.mark.parametrize("study", ["estimate_mix", "estimate_library"])
+def test_only_partitions_is_checked_before_any_work(study, capsys):
+    import importlib
 
+    main = importlib.import_module(f"experiments.{study}").main
     with pytest.raises(SystemExit):
-        estimate_mix.main(["--partitions", "2", "--only-partitions", "2", "--out", "x"])
+        main(["--partitions", "2", "--only-partitions", "2", "--out", "x"])
     assert "each must be in 0..1" in capsys.readouterr().err
     with pytest.raises(SystemExit):
-        estimate_mix.main(["--only-partitions", "0"])
+        main(["--only-partitions", "0"])
     assert "needs its own --out" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["--no-unseen"] if study == "estimate_library" else ["--partitions", "0"])
+    err = capsys.readouterr().err
+    assert ("unrecognized" if study == "estimate_library" else ">= 1") in err
