@@ -222,7 +222,9 @@ def readme_text(summary: dict) -> str:
         f"{summary['fold_in_library']}'s training lamps, which its prior holds, "
         "scored by that fold: what is left when the library has a measured "
         "spectrum of the very lamp (surface, Moon, atmosphere, noise and the "
-        "bands). The two are paired on the same lamps (about 4/5 of each "
+        "bands; these lamps' pixels also served the inner folds' choices of the "
+        "band-error model and the interval factors, so their coverage is no "
+        "calibration check). The two are paired on the same lamps (about 4/5 of each "
         "partition's) and by partition; class-balanced MAE, mean ± SD over "
         f"{summary['partitions']} partitions. Scored lamps are measured ones; the "
         "priors hold the library's modelled Planck spectra. Generated from "
@@ -282,7 +284,7 @@ def readme_text(summary: dict) -> str:
             "",
             f"Our bands in library: {own['LER']:.1f} lm/W, G {own['G']:.3f}, "
             f"CCT {own['CCT']:.0f} K against the goal {goal['LER']:g} / "
-            f"{goal['G']:g} / {goal['CCT']:g} K ("
+            f"{goal['G']:.2f} / {goal['CCT']:g} K ("
             + ("met for " + ", ".join(met) if met else "met for none of them")
             + "); held out, the same lamps: "
             f"{held['LER']:.1f} / {held['G']:.3f} / {held['CCT']:.0f} K. The "
