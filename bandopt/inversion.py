@@ -1093,6 +1093,50 @@ def planck_lamps(wavelength_nm) -> LampSet:
     )
 
 
+def own_lamps(
+    names: Sequence[str], values, source_nm, wavelength_nm, level2: Sequence[str]
+) -> LampSet:
+    """A user's measured lamp spectra as prior lamps: `values` (l, w) on
+    `source_nm` (any scale) put on `wavelength_nm` the way the library puts
+    its lamps on a grid (linear interpolation, then one lumen on that grid:
+    `bandopt.photometry.ler` times the radiant power 380-780 nm), labelled
+    with their level-2 classes `level2` (one of `LEVEL2`) and those classes'
+    level-1 families. Ids `own:<name>`. They train, never score: the held-out
+    scores are of library lamps, so what a lamp of yours in the prior buys
+    is the library's in-library bound (`make estimate-library`)."""
+    wl = np.asarray(wavelength_nm, float)
+    src = np.asarray(source_nm, float)
+    v = np.atleast_2d(np.asarray(values, float))
+    names, level2 = tuple(names), tuple(level2)
+    if not (len(names) == len(level2) == v.shape[0]):
+        raise ValueError(
+            f"own lamps: {len(names)} names, {len(level2)} classes and "
+            f"{v.shape[0]} spectra; need one of each per lamp."
+        )
+    bad = [c for c in level2 if c not in LEVEL2]
+    if bad:
+        raise ValueError(
+            f"own lamps: class {bad[0]!r} is not a level-2 class; choose from "
+            f"{', '.join(LEVEL2)}."
+        )
+    if v.shape[1] != src.size:
+        raise ValueError(
+            f"own lamps: spectra have {v.shape[1]} values, the grid {src.size}."
+        )
+    rows = np.array([np.interp(wl, src, x) for x in v]).reshape(-1, wl.size)
+    vis = wl <= 780.0
+    lum = np.asarray(ler(rows, wl)) * np.trapezoid(rows[:, vis], wl[vis], axis=1)
+    if rows.size and not np.all(np.isfinite(lum) & (lum > 0)):
+        k = int(np.flatnonzero(~(np.isfinite(lum) & (lum > 0)))[0])
+        raise ValueError(f"own lamps: {names[k]} emits no light in 380-780 nm.")
+    return LampSet(
+        tuple(f"own:{n}" for n in names),
+        rows / lum[:, None] if rows.size else rows,
+        tuple(LEVEL2_PARENT[c] for c in level2),
+        level2,
+    )
+
+
 def with_planck_lamps(always: LampSet | None, grid) -> LampSet:
     """`always` (None: no lamps) plus `planck_lamps`."""
     planck = planck_lamps(grid)

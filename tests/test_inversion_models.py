@@ -360,6 +360,9 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
     monkeypatch.setattr(inv_mod, "context_moon", lambda c: moon)
     ctx = _fake_context(case)
     ctx.table.n_lamps = len(lamps.ids)
+    from bandopt.spectra import GRID_1NM
+
+    own_hps = np.interp(np.asarray(GRID_1NM, float), GRID, lamps.spectra[0])[None]
     for n, intervals, mix, sigma, unit, shifts, planck in (
         (0, "known-types", 0, "joint", "half-width", "off", "on"),
         (4, "any-type", 50, "per-metric", "narrowest", "on", "off"),
@@ -373,6 +376,8 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             interval_unit=unit,
             peak_shifts=shifts,
             planck=planck,
+            # one of your own lamps in the prior (`--prior-lamps hps=my.csv`)
+            own_lamps=(["my.csv"], own_hps, ["hps"]) if n else None,
         )
         _, _, desc = _cmd_evaluate._fit(args, ctx, FIVE, "unknown")
         want = inv_mod.INTERVAL_OFFSET_GRID if unit == "narrowest" else (0.0,)
@@ -395,7 +400,10 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
         assert seen["modelled_per_class"] == n
         assert seen["mixtures"] == mix
         got = () if seen["always"] is None else seen["always"].ids
-        assert got == (inv_mod.planck_lamps(GRID).ids if planck == "on" else ())
+        want = inv_mod.planck_lamps(GRID).ids if planck == "on" else ()
+        assert got == want + (("own:my.csv",) if n else ())
+        said = "and 1 measured lamp of yours (own:my.csv; they train, never score)"
+        assert (said in desc) == bool(n)
         said = "3 measured library lamps, 5 modelled incandescent spectra (Planck's"
         assert (said in desc) == (planck == "on")
         want = inv_mod.PEAK_SHIFTS_NM if shifts == "on" else ()
@@ -448,6 +456,10 @@ def test_evaluate_json_says_how_many_modelled_lamps(
         out = json.loads(capsys.readouterr().out)
         assert out["modelled_lamps_used"] == n
     assert seen == [0, 5]
+    assert out["prior_lamps"] == []
+    assert main([*argv, "--prior-lamps", f"hps={spec}"]) == 0
+    want = [{"file": str(spec), "level2": "hps", "id": "own:l.csv"}]
+    assert json.loads(capsys.readouterr().out)["prior_lamps"] == want
     assert main([*argv, "--estimator", "ridge", "--modelled-per-class", "2"]) == 2
     assert "--estimator inversion only" in capsys.readouterr().err
     assert main([*argv, "--modelled-per-class", "-1"]) == 2

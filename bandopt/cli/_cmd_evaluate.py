@@ -104,6 +104,18 @@ def register(subparsers):
         f"modelled_in_prior (default {PLANCK_DEFAULT}; results/estimate_planck)",
     )
     p.add_argument(
+        "--prior-lamps",
+        nargs="+",
+        default=[],
+        metavar="CLASS=FILE",
+        help="inversion only: also put your own measured lamp spectra into the "
+        "prior, each with its level-2 class (e.g. led_warm=my_led.csv "
+        "hps=street_hps.csv; files as for --lamps). A lamp the library lacks "
+        "costs most of the estimate's error (results/estimate_library); "
+        "measured spectra of the lamps in your scene remove that. They train, "
+        "never score; the JSON lists them in prior_lamps",
+    )
+    p.add_argument(
         "--sigma",
         choices=tuple(SIGMA_RULES),
         default="per-metric",
@@ -329,10 +341,14 @@ def _fit(args, ctx, bands, mode):
             basis=basis,
             surface_mode=mode,
             row_surface=row_surface,
-            always=(
-                inv_mod.with_planck_lamps(always, grid)
-                if args.planck == "on"
-                else always
+            always=_with_own_lamps(
+                (
+                    inv_mod.with_planck_lamps(always, grid)
+                    if args.planck == "on"
+                    else always
+                ),
+                getattr(args, "own_lamps", None),
+                grid,
             ),
             modelled_per_class=args.modelled_per_class,
             # the Moon's brightness of every training scene is known (as it is
@@ -362,7 +378,10 @@ def _fit(args, ctx, bands, mode):
         n_mix = inv.diagnostics["mixtures"]["n"]
         shifted = inv.diagnostics["peak_shifts"]
         n_planck = sum(i.startswith("planck_") for i in inv.prior.ids)
-        n_measured = len(inv.prior.ids) - n_model - n_mix - shifted["n"] - n_planck
+        own = [i for i in inv.prior.ids if i.startswith("own:")]
+        n_measured = (
+            len(inv.prior.ids) - n_model - n_mix - shifted["n"] - n_planck - len(own)
+        )
         prior = f"{n_measured} measured library lamps"
         if n_planck:
             prior += (
@@ -384,6 +403,11 @@ def _fit(args, ctx, bands, mode):
             prior += (
                 f", and {shifted['n']} copies of its direct-emission LEDs shifted "
                 f"by {', '.join(f'{x:+g}' for x in shifted['shifts_nm'])} nm"
+            )
+        if own:
+            prior += (
+                f", and {len(own)} measured lamp{'s' if len(own) > 1 else ''} of "
+                f"yours ({', '.join(own)}; they train, never score)"
             )
         desc = (
             f"physics-based inversion (bandopt.inversion), prior over {prior}, "
@@ -409,6 +433,40 @@ def _fit(args, ctx, bands, mode):
         "lamps' |error| (split-conformal)"
     )
     return (est, q), None, desc
+
+
+def parse_prior_lamps(entries) -> list[tuple[str, str]]:
+    """`--prior-lamps` entries `CLASS=FILE` -> (class, file) pairs; errors
+    name the entry and the problem (no file is read here)."""
+    from ..datasets.lamps import LEVEL2
+
+    out = []
+    for e in entries:
+        cls, sep, path = str(e).partition("=")
+        if not sep or not cls or not path:
+            raise ValueError(
+                f"--prior-lamps {e!r}: expected CLASS=FILE (e.g. led_warm=my_led.csv)."
+            )
+        if cls not in LEVEL2:
+            raise ValueError(
+                f"--prior-lamps {e!r}: class {cls!r} is not a level-2 class; choose "
+                f"from {', '.join(LEVEL2)}."
+            )
+        out.append((cls, path))
+    return out
+
+
+def _with_own_lamps(always, own, grid):
+    """`always` plus the user's lamps `own` ((names, values on GRID_1NM,
+    classes), or None: none) on `grid` (`inversion.own_lamps`)."""
+    if not own or not own[0]:
+        return always
+    from .. import inversion as inv_mod
+    from ..spectra import GRID_1NM
+
+    names, values, classes = own
+    lamps = inv_mod.own_lamps(names, values, GRID_1NM, grid, classes)
+    return lamps if always is None else always + lamps
 
 
 def _unit_text(inv) -> str:
@@ -521,6 +579,7 @@ def _baseline_rows(est, q, rad):
 def run(args) -> int:
     import math
     import sys
+    from pathlib import Path
 
     import jax.numpy as jnp
     import numpy as np
@@ -569,6 +628,11 @@ def run(args) -> int:
             f"--peak-shifts {args.peak_shifts}: shifted LEDs go into the prior of "
             f"--estimator inversion only (got --estimator {args.estimator})."
         )
+    if args.prior_lamps and args.estimator != "inversion":
+        raise ValueError(
+            "--prior-lamps: your lamps go into the prior of --estimator inversion "
+            f"only (got --estimator {args.estimator})."
+        )
     if args.intervals != "any-type" and args.estimator != "inversion":
         raise ValueError(
             f"--intervals {args.intervals}: for --estimator inversion only (got "
@@ -579,6 +643,17 @@ def run(args) -> int:
     name = entry.key if entry is not None else bands.name
     warnings = band_set_warnings(bands, args.bands, log=sys.stderr)
     lamps = [load_user_lamp(p) for p in args.lamps]  # errors before training
+    prior_files = parse_prior_lamps(args.prior_lamps)
+    prior_loaded = [load_user_lamp(p) for _, p in prior_files]
+    args.own_lamps = (
+        (
+            [Path(p).name for _, p in prior_files],
+            np.array([v for v, _ in prior_loaded]),
+            [c for c, _ in prior_files],
+        )
+        if prior_files
+        else None
+    )
     grid = np.asarray(GRID_1NM, float)
     refl, surface_label, mode, knowledge = _surface(args, grid)
     ctx = get_context("search", None, 0, "none")
@@ -607,6 +682,7 @@ def run(args) -> int:
         if note:
             notes.append(note)
     band_rad = np.asarray(band_rad)
+    notes += [{**n, "prior_lamp": True} for _, n in prior_loaded if n]
     if args.estimator == "inversion":
         if mode == "class":
             know = [knowledge] * len(band_rad)
@@ -670,6 +746,10 @@ def run(args) -> int:
             else []
         ),
         "sigma_rel": _sigma_json(model, args.estimator),
+        "prior_lamps": [
+            {"file": str(p), "level2": c, "id": f"own:{Path(p).name}"}
+            for c, p in prior_files
+        ],
     }
     if args.plot:
         _plot(rows, name, args.estimator, args.plot)
