@@ -103,11 +103,13 @@ def register(subparsers):
         "spectra train, never score, and the JSON lists them in "
         f"modelled_in_prior (default {PLANCK_DEFAULT}; results/estimate_planck)",
     )
-    p.add_argument(
+    add_list_option(
+        p,
         "--prior-lamps",
-        nargs="+",
         default=[],
+        default_help="none",
         metavar="CLASS=FILE",
+        split_commas=False,
         help="inversion only: also put your own measured lamp spectra into the "
         "prior, each with its level-2 class (e.g. led_warm=my_led.csv "
         "hps=street_hps.csv; files as for --lamps). A lamp the library lacks "
