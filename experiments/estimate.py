@@ -619,7 +619,11 @@ def _recommendation(summary, coverage) -> dict:
         "direct-emission LEDs and the library's modelled incandescent (Planck) "
         "spectra in its prior (results/estimate_defaults/summary.json, rows "
         "inversion-moon-mix-metric-narrow-shift-planck; modelled spectra train, "
-        "never score)",
+        "never score). Its error on lamps its prior holds, against the same lamps "
+        "held out, and against the library's size: results/estimate_library/"
+        "summary.json (rows ending '(in library)' and '(held out)', "
+        "library_size); your own measured lamps go into its prior with "
+        "bandopt evaluate --prior-lamps",
         "class_balanced_mae": rows,
         "coverage": coverage,
         "source": "results/estimate/summary.json",
