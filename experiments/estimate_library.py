@@ -19,6 +19,10 @@ Their difference is what a lamp the library lacks costs; a library that
 held every lamp kind a user meets would bring the held-out error down to
 the in-library one, no better. Modelled (Planck) spectra train, never score.
 
+What knowing the surface adds, held out and in library (our bands): the
+same units with the surface's class known, or its reflectance measured by
+Sentinel-2 in daytime (`SURFACES`), paired against the surface unknown.
+
 How fast the held-out error falls with the library's size: the same folds
 with each outer fold trained on `FRACTIONS` of its training lamps per class
 (`cross_validate(train_fraction=)`; our bands), against the whole library,
@@ -61,36 +65,37 @@ DIGITS = {"LER": 1, "G": 3, "CCT": 0, "CCT_mired": 1, "LER_covered": 3,
 GOAL = {"LER": 5.0, "G": 0.10, "CCT": 200.0}
 """Issue 12's goal for pan + 5 bands, surface unknown."""
 HEADING = "## What a lamp the library lacks costs"
+SURFACES = ("class", "measured")
+"""What else the inversion may know of the surface (besides "unknown"), our
+bands: its class, or its reflectance measured by Sentinel-2 in daytime."""
 FRACTIONS = (0.25, 0.5, 0.75)
 """Shares of each outer fold's training lamps (per class) of the smaller
 libraries (our bands; the whole library is the held-out run)."""
 
 
 def unit_key(r: dict) -> tuple:
-    """The unit a record belongs to: (partition, band set, library share)."""
-    return (r["partition"], r["band_set"], r.get("train_fraction", 1.0))
+    """The unit a record belongs to: (partition, band set, library share,
+    surface knowledge)."""
+    return (r["partition"], r["band_set"], r.get("train_fraction", 1.0), r["surface"])
 
 
-def unit(p: int, name: str, fraction: float = 1.0) -> list[dict]:
+def unit(p: int, name: str, fraction: float = 1.0, surfaces=("unknown",)) -> list[dict]:
     """Records of one (partition, band set): held-out scores of every outer
-    fold and in-library scores of fold `FOLD`'s training lamps; with
-    `fraction` < 1, only held-out scores, each fold trained on that share of
-    its training lamps."""
+    fold and in-library scores of fold `FOLD`'s training lamps, in each
+    surface mode of `surfaces`; with `fraction` < 1, only held-out scores,
+    each fold trained on that share of its training lamps."""
     from bandopt import inversion as inv_mod
     from bandopt.search import get_context
 
     ctx = get_context("search", None, p, "auto")
     bands = band_set(name)
-    held = inv_mod.cross_validate(
-        ctx, bands, estimators=(DEFAULT,), seed=p, train_fraction=fraction
-    )
+    kw = dict(estimators=(DEFAULT,), seed=p, surface_modes=tuple(surfaces))
+    held = inv_mod.cross_validate(ctx, bands, train_fraction=fraction, **kw)
     if fraction < 1.0:
         for r in held:
             r.update(scored="test", partition=p, band_set=name)
         return held
-    own = inv_mod.cross_validate(
-        ctx, bands, estimators=(DEFAULT,), seed=p, folds=[FOLD], scored="train"
-    )
+    own = inv_mod.cross_validate(ctx, bands, folds=[FOLD], scored="train", **kw)
     for r in held:  # the training lamps of its fold (the smaller ones say it)
         r.update(scored="test", train_lamps=len(ctx.splits[r["fold"]].train))
     for r in held + own:
@@ -101,10 +106,11 @@ def unit(p: int, name: str, fraction: float = 1.0) -> list[dict]:
 def relabel(records: list[dict]) -> list[dict]:
     """Copies of `records` labelled for the summary: every held-out record as
     `DEFAULT`, the held-out records of lamps scored in library (same
-    partition and band set) also as `HELD`, the in-library ones as `OWN`."""
+    partition, band set and surface mode) also as `HELD`, the in-library ones
+    as `OWN`. The smaller libraries' records are left out."""
     records = [r for r in records if "train_fraction" not in r]
     own = {
-        (r["partition"], r["band_set"], r["lamp"])
+        (r["partition"], r["band_set"], r["surface"], r["lamp"])
         for r in records
         if r["scored"] == "train"
     }
@@ -114,7 +120,7 @@ def relabel(records: list[dict]) -> list[dict]:
             out.append({**r, "estimator": OWN})
             continue
         out.append(dict(r))
-        if (r["partition"], r["band_set"], r["lamp"]) in own:
+        if (r["partition"], r["band_set"], r["surface"], r["lamp"]) in own:
             out.append({**r, "estimator": HELD})
     return out
 
@@ -133,7 +139,10 @@ def library_size(records: list[dict], goal=GOAL) -> dict:
 
     from bandopt import inversion as inv_mod
 
-    ours = [r for r in records if r["band_set"] == "recommended"]
+    ours = [
+        r for r in records
+        if r["band_set"] == "recommended" and r["surface"] == "unknown"
+    ]  # fmt: skip
     held = [{**r, "estimator": str(r.get("train_fraction", 1.0))} for r in ours
             if r["scored"] == "test"]  # fmt: skip
     rows = inv_mod.summarise(held, keys=("estimator",))
@@ -176,6 +185,32 @@ def library_size(records: list[dict], goal=GOAL) -> dict:
     return {"sizes": sizes, "fit": fits}
 
 
+def surface_knowledge(rows: list[dict], columns=("LER", "G", "CCT")) -> list[dict]:
+    """Our bands, held out and in library: each surface mode of `SURFACES`
+    minus the surface unknown, paired by partition on the same lamps (mean,
+    SD ddof 1, per column of `columns`)."""
+    import numpy as np
+
+    by = {(r["estimator"], r["surface"]): r for r in rows
+          if r["band_set"] == "recommended"}  # fmt: skip
+    out = []
+    for est in (HELD, OWN):
+        base = by.get((est, "unknown"))
+        for mode in SURFACES:
+            row = by.get((est, mode))
+            if base is None or row is None:
+                continue
+            d = {"estimator": est, "surface": mode, "vs": "unknown"}
+            for c in columns:
+                a, b = row.get(f"{c}_per_partition"), base.get(f"{c}_per_partition")
+                if a and b and len(a) == len(b):
+                    x = np.asarray(a) - np.asarray(b)
+                    d[f"{c}_diff"] = float(x.mean())
+                    d[f"{c}_diff_sd"] = float(x.std(ddof=1)) if x.size > 1 else None
+            out.append(d)
+    return out
+
+
 def summarise(records: list[dict], partitions: int) -> dict:
     from bandopt import inversion as inv_mod
 
@@ -183,7 +218,14 @@ def summarise(records: list[dict], partitions: int) -> dict:
     rows = inv_mod.summarise(recs)
     order = {b: i for i, b in enumerate(BAND_SETS)}
     labels = (DEFAULT, HELD, OWN)
-    rows.sort(key=lambda r: (order[r["band_set"]], labels.index(r["estimator"])))
+    modes = ("unknown", *SURFACES)
+    rows.sort(
+        key=lambda r: (
+            order[r["band_set"]],
+            modes.index(r["surface"]),
+            labels.index(r["estimator"]),
+        )
+    )
     paired = inv_mod.estimator_differences(rows, ((OWN, HELD),), COLUMNS)
     for name in BAND_SETS[1:]:
         paired += [
@@ -200,7 +242,10 @@ def summarise(records: list[dict], partitions: int) -> dict:
         "goal": GOAL,
         "rows": rows,
         "paired": paired,
-        "by_class": by_class(recs, (HELD, OWN)),
+        "by_class": by_class(
+            [r for r in recs if r["surface"] == "unknown"], (HELD, OWN)
+        ),
+        "surface_knowledge": surface_knowledge(rows),
         "library_size": library_size(records),
         "bands": {"recommended": "results/search/recommended_bands.json"},
         "scored_lamps": "measured lamps only",
@@ -209,7 +254,8 @@ def summarise(records: list[dict], partitions: int) -> dict:
 
 
 def readme_text(summary: dict) -> str:
-    rows = {(r["band_set"], r["estimator"]): r for r in summary["rows"]}
+    unknown = [r for r in summary["rows"] if r["surface"] == "unknown"]
+    rows = {(r["band_set"], r["estimator"]): r for r in unknown}
     lines = [
         f"{HEADING} (`results/estimate_library/`, `make estimate-library`)",
         "",
@@ -235,7 +281,7 @@ def readme_text(summary: dict) -> str:
         "|---|---|---|---|---|---|---|---|---|",
     ]
     names = {DEFAULT: "held out, all lamps", HELD: "held out", OWN: "in library"}
-    for r in summary["rows"]:
+    for r in unknown:
         cov = "/".join(
             "n/a" if r.get(f"{m}_covered") is None else f"{r[f'{m}_covered']:.2f}"
             for m in ("LER", "G", "CCT")
@@ -256,7 +302,7 @@ def readme_text(summary: dict) -> str:
         "|---|---|---|---|---|---|---|",
     ]
     for p in summary["paired"]:
-        if p.get("vs") != HELD:
+        if p.get("vs") != HELD or p["surface"] != "unknown":
             continue
         cells = diff_cells(p, [(c, DIGITS[c]) for c in COLUMNS])
         lines.append(f"| {p['band_set']} | " + " | ".join(cells) + " |")
@@ -332,6 +378,34 @@ def readme_text(summary: dict) -> str:
             "E(N) = E_lib + a N^-b (an extrapolation beyond the sizes measured, "
             "with lamps as varied as this library's): " + "; ".join(said) + ".",
         ]
+    knows = summary.get("surface_knowledge") or []
+    if knows:
+        by = {(r["estimator"], r["surface"]): r for r in summary["rows"]
+              if r["band_set"] == "recommended"}  # fmt: skip
+        lines += [
+            "",
+            "What knowing the surface adds (our bands; the surface's class, or its "
+            "reflectance measured by Sentinel-2 in daytime, against unknown; paired "
+            "by partition on the same lamps):",
+            "",
+            "| surface | scored | LER [lm/W] | G | CCT [K] | minus unknown: LER | G "
+            "| CCT [K] |",
+            "|---|---|---|---|---|---|---|---|",
+        ]
+        diffs = {(d["estimator"], d["surface"]): d for d in knows}
+        for mode in ("unknown", *SURFACES):
+            for est in (HELD, OWN):
+                r = by.get((est, mode))
+                if r is None:
+                    continue
+                d = diffs.get((est, mode))
+                cells = diff_cells(d) if d else ["", "", ""]
+                lines.append(
+                    f"| {mode} | {names[est]} | {_fmt(r, 'LER', 1)} | "
+                    f"{_fmt(r, 'G', 3)} | {_fmt(r, 'CCT', 0)} | "
+                    + " | ".join(cells)
+                    + " |"
+                )
     classes = summary.get("by_class") or {}
     if classes.get(HELD) and classes.get(OWN):
         cells = []
@@ -399,19 +473,22 @@ def main(argv=None) -> int:
     records, _ = load_records(rec_path, keep=args.resume, say=log)
     done = {unit_key(r) for r in records}
     t0 = time.time()
-    units = [(p, b, 1.0) for p in only for b in BAND_SETS]
-    units += [(p, "recommended", f) for p in only for f in FRACTIONS]
-    for j, (p, name, f) in enumerate(units):
-        if (p, name, f) in done:
+    one = ("unknown",)
+    units = [(p, b, 1.0, one) for p in only for b in BAND_SETS]
+    units += [(p, "recommended", f, one) for p in only for f in FRACTIONS]
+    units += [(p, "recommended", 1.0, SURFACES) for p in only]
+    for j, (p, name, f, modes) in enumerate(units):
+        if all((p, name, f, m) in done for m in modes):
             continue
         t1 = time.time()
-        recs = unit(p, name, f)
+        recs = unit(p, name, f, modes)
         with rec_path.open("a") as fh:  # a finished unit is kept
             for r in recs:
                 fh.write(json.dumps(r) + "\n")
         records += recs
         log(
-            f"partition {p}, {name}, library share {f:g}: {time.time() - t1:.0f} s "
+            f"partition {p}, {name}, library share {f:g}, surface "
+            f"{'/'.join(modes)}: {time.time() - t1:.0f} s "
             f"({j + 1}/{len(units)} units, {time.time() - t0:.0f} s)"
         )
     summary = summarise(records, args.partitions)
@@ -430,6 +507,7 @@ def main(argv=None) -> int:
             "estimator": DEFAULT,
             "fold_in_library": FOLD,
             "library_fractions": [*FRACTIONS, 1.0],
+            "surface_modes_ours": ["unknown", *SURFACES],
             "scored_lamps": "measured lamps only",
             "training_lamps": "measured lamps, their same-class mixtures, "
             "wavelength-shifted copies of direct-emission LEDs and the library's "

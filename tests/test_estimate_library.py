@@ -106,6 +106,33 @@ def test_library_size_fit_recovers_a_known_law():
     assert all(r.get("train_fraction") is None for r in el.relabel(recs))
 
 
+def test_surface_knowledge_is_paired_against_unknown():
+    """Records of our bands in the surface modes: paired against the surface
+    unknown per scored kind on the same lamps, in their own README table,
+    and left out of the main table, the per-class line and the size fit."""
+    recs = _records()
+    for mode, gain in (("class", 1.0), ("measured", 1.5)):
+        recs += [
+            {**r, "surface": mode, "LER": r["LER"] - gain}
+            for r in _records()
+            if r["band_set"] == "recommended"
+        ]
+    s = el.summarise(recs, 2)
+    knows = {(d["estimator"], d["surface"]): d for d in s["surface_knowledge"]}
+    assert knows[(el.OWN, "measured")]["LER_diff"] == pytest.approx(-1.5)
+    assert knows[(el.HELD, "class")]["LER_diff"] == pytest.approx(-1.0)
+    text = el.readme_text(s)
+    assert (
+        "| measured | in library | 0.5 ± 0.0 | 0.050 ± 0.000 | 300 ± 0 | "
+        "-1.5 ± 0.0 |" in text
+    )
+    assert "| unknown | held out | 10.5 ± 0.7 | 0.200 ± 0.000 | 300 ± 0 |  |" in text
+    assert text.count("| recommended | in library |") == 1  # the unknown row only
+    assert "hps (1) 8.5 → 2.0 lm/W" in text  # the surface-unknown records only
+    assert [z["train_lamps"] for z in el.library_size(recs)["sizes"]] == [None]
+    assert {el.unit_key(r)[3] for r in recs} == {"unknown", "class", "measured"}
+
+
 def test_estimator_is_evaluates():
     assert el.DEFAULT == inv_mod.DEFAULT_ESTIMATOR
     assert el.BAND_SETS == ("recommended", "sdgsat-1", "nightsat")
