@@ -93,7 +93,7 @@ estimate-planck: $(STAMP)  ## evaluate's estimator without vs with the library's
 estimate-defaults: $(STAMP)  ## bandopt evaluate's estimator as a whole (shifted LEDs and Planck spectra in the prior) against the estimator without both, our bands and the two best reference sensors, 4 lamp partitions, paired; unseen types (resumable: ARGS=--resume)
 	$(BIN)/python -m experiments.estimate_defaults $(ARGS)
 
-estimate-library: $(STAMP)  ## what a lamp the library lacks costs: bandopt evaluate's estimator on held-out lamps and on lamps its prior holds, the same lamps paired, our bands and the two best reference sensors, 4 lamp partitions (resumable: ARGS=--resume)
+estimate-library: $(STAMP)  ## what a lamp the library lacks costs: bandopt evaluate's estimator on held-out lamps and on lamps its prior holds, the same lamps paired, our bands and the two best reference sensors; surface knowledge; library size; 4 lamp partitions (resumable: ARGS=--resume)
 	$(BIN)/python -m experiments.estimate_library $(ARGS)
 
 unseen-ceiling: $(STAMP)  ## the level-1 family of unseen lamp types from bare lamp spectra (5-50 nm) and the recommended bands, classifiers trained on the other classes: the ceiling of issue 12's 90 % goal (under a minute)
