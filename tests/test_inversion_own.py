@@ -76,7 +76,7 @@ def test_a_lamp_the_prior_lacks_is_found_once_it_is_in_it(lib):
 
 
 def test_prior_lamp_entries_are_checked_before_any_file_is_read():
-    from bandopt.cli._cmd_evaluate import parse_prior_lamps
+    from bandopt.cli._cmd_evaluate import parse_prior_lamps, prior_lamp_names
 
     assert parse_prior_lamps(["hps=a.csv", "led_warm=dir/b=c.csv"]) == [
         ("hps", "a.csv"),
@@ -86,6 +86,14 @@ def test_prior_lamp_entries_are_checked_before_any_file_is_read():
         parse_prior_lamps(["a.csv"])
     with pytest.raises(ValueError, match="class 'sodium' is not a level-2 class"):
         parse_prior_lamps(["sodium=a.csv"])
+    with pytest.raises(ValueError, match=r"a\.csv is given twice"):
+        parse_prior_lamps(["hps=a.csv", "led_warm=a.csv"])
+    # two files of one name are told apart by their paths
+    assert prior_lamp_names(["x/a.csv", "y/a.csv", "b.csv"]) == [
+        "x/a.csv",
+        "y/a.csv",
+        "b.csv",
+    ]
 
 
 def test_evaluate_puts_your_lamps_into_the_prior(monkeypatch, tmp_path, lib, capsys):

@@ -455,7 +455,22 @@ def parse_prior_lamps(entries) -> list[tuple[str, str]]:
                 f"from {', '.join(LEVEL2)}."
             )
         out.append((cls, path))
+    paths = [p for _, p in out]
+    twice = sorted({p for p in paths if paths.count(p) > 1})
+    if twice:
+        raise ValueError(f"--prior-lamps: {twice[0]} is given twice.")
     return out
+
+
+def prior_lamp_names(paths) -> list[str]:
+    """Each `--prior-lamps` file's name in the prior (ids `own:<name>`): its
+    file name, or its path where two files share a name."""
+    from pathlib import Path
+
+    names = [Path(p).name for p in paths]
+    return [
+        str(p) if names.count(n) > 1 else n for p, n in zip(paths, names, strict=True)
+    ]
 
 
 def _with_own_lamps(always, own, grid):
@@ -581,7 +596,6 @@ def _baseline_rows(est, q, rad):
 def run(args) -> int:
     import math
     import sys
-    from pathlib import Path
 
     import jax.numpy as jnp
     import numpy as np
@@ -649,7 +663,7 @@ def run(args) -> int:
     prior_loaded = [load_user_lamp(p) for _, p in prior_files]
     args.own_lamps = (
         (
-            [Path(p).name for _, p in prior_files],
+            prior_lamp_names([p for _, p in prior_files]),
             np.array([v for v, _ in prior_loaded]),
             [c for c, _ in prior_files],
         )
@@ -749,8 +763,10 @@ def run(args) -> int:
         ),
         "sigma_rel": _sigma_json(model, args.estimator),
         "prior_lamps": [
-            {"file": str(p), "level2": c, "id": f"own:{Path(p).name}"}
-            for c, p in prior_files
+            {"file": str(p), "level2": c, "id": f"own:{n}"}
+            for (c, p), n in zip(
+                prior_files, prior_lamp_names([p for _, p in prior_files]), strict=True
+            )
         ],
     }
     if args.plot:
