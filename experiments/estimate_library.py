@@ -45,11 +45,18 @@ from pathlib import Path
 
 from experiments.estimate import _fmt, band_set, diff_cells, load_records
 from experiments.estimate_defaults import DEFAULT
-from experiments.estimate_mix import UNKNOWN_ONLY, figure, log, partition_args
+from experiments.estimate_mix import UNKNOWN_ONLY, figure, log as _log, partition_args
 from experiments.estimate_shift import by_class
 
 
 OUT = "results/estimate_library"
+
+
+def log(msg: str) -> None:
+    """Progress line on stderr, `[estimate_library HH:MM:SS] msg`."""
+    _log(msg, "estimate_library")
+
+
 BAND_SETS = tuple(UNKNOWN_ONLY)
 """Our bands and the two best reference sensors, surface unknown."""
 FOLD = 0

@@ -94,10 +94,9 @@ def _by_intervals(recs) -> dict:
     return out
 
 
-def log(msg: str) -> None:
-    print(
-        f"[estimate_mix {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True
-    )
+def log(msg: str, study: str = "estimate_mix") -> None:
+    """Progress line on stderr, `[study HH:MM:SS] msg`."""
+    print(f"[{study} {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
 
 
 def row_line(r: dict, surface: bool = True) -> str:

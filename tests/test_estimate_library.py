@@ -133,6 +133,11 @@ def test_surface_knowledge_is_paired_against_unknown():
     assert {el.unit_key(r)[3] for r in recs} == {"unknown", "class", "measured"}
 
 
+def test_progress_says_which_study(capsys):
+    el.log("partition 0")
+    assert capsys.readouterr().err.startswith("[estimate_library ")
+
+
 def test_estimator_is_evaluates():
     assert el.DEFAULT == inv_mod.DEFAULT_ESTIMATOR
     assert el.BAND_SETS == ("recommended", "sdgsat-1", "nightsat")
