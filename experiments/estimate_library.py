@@ -45,8 +45,14 @@ from pathlib import Path
 
 from experiments.estimate import _fmt, band_set, diff_cells, load_records
 from experiments.estimate_defaults import DEFAULT
-from experiments.estimate_mix import UNKNOWN_ONLY, figure, log as _log, partition_args
-from experiments.estimate_shift import by_class
+from experiments.estimate_mix import (
+    UNKNOWN_ONLY,
+    figure,
+    keep_unit,
+    log as _log,
+    partition_args,
+)
+from experiments.estimate_shift import by_class, reference_lines
 
 
 OUT = "results/estimate_library"
@@ -313,21 +319,12 @@ def readme_text(summary: dict) -> str:
             continue
         cells = diff_cells(p, [(c, DIGITS[c]) for c in COLUMNS])
         lines.append(f"| {p['band_set']} | " + " | ".join(cells) + " |")
-    lines += [
-        "",
+    lines += reference_lines(
+        [p for p in summary["paired"] if p.get("vs") != HELD],
         "Reference sensors minus recommended bands, paired by partition:",
-        "",
-        "| compared | scored | LER [lm/W] | G | CCT [K] |",
-        "|---|---|---|---|---|",
-    ]
-    for p in summary["paired"]:
-        if p.get("vs") == HELD:
-            continue
-        lines.append(
-            f"| {p['band_set']} − {p['vs']} | {names[p['estimator']]} | "
-            + " | ".join(diff_cells(p))
-            + " |"
-        )
+        "scored",
+        names.get,
+    )
     own, held = rows.get(("recommended", OWN)), rows.get(("recommended", HELD))
     if own and held:
         goal = summary["goal"]
@@ -488,11 +485,7 @@ def main(argv=None) -> int:
         if all((p, name, f, m) in done for m in modes):
             continue
         t1 = time.time()
-        recs = unit(p, name, f, modes)
-        with rec_path.open("a") as fh:  # a finished unit is kept
-            for r in recs:
-                fh.write(json.dumps(r) + "\n")
-        records += recs
+        records += keep_unit(rec_path, unit(p, name, f, modes))
         log(
             f"partition {p}, {name}, library share {f:g}, surface "
             f"{'/'.join(modes)}: {time.time() - t1:.0f} s "

@@ -344,6 +344,15 @@ def manifest_config(study: Study, partitions: int) -> dict:
     }
 
 
+def keep_unit(rec_path: Path, recs: list[dict]) -> list[dict]:
+    """Append a finished unit's records to `rec_path` (a resumable run keeps
+    them whatever fails later) and return them."""
+    with rec_path.open("a") as fh:
+        for r in recs:
+            fh.write(json.dumps(r) + "\n")
+    return recs
+
+
 def partition_args(argv, description: str, out: str, unseen: bool = True):
     """The command line of a partitioned, resumable study: `--partitions`,
     `--out` (default `out`), `--resume`, `--only-partitions` and, with
@@ -413,10 +422,7 @@ def main(argv=None, study: Study | None = None) -> int:
         )
         for r in recs:
             r.update(partition=p, band_set=name)
-        with rec_path.open("a") as fh:  # a finished unit is kept
-            for r in recs:
-                fh.write(json.dumps(r) + "\n")
-        records += recs
+        records += keep_unit(rec_path, recs)
         log(
             f"partition {p}, {name}: {time.time() - t1:.0f} s "
             f"({j + 1}/{len(units)} units, {time.time() - t0:.0f} s)"

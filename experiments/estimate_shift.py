@@ -86,6 +86,25 @@ def readme_text(summary: dict) -> str:
     )
 
 
+def reference_lines(paired, title: str, column: str, label=None) -> list[str]:
+    """README lines: `title` and a table of reference sensors minus the
+    recommended bands (`paired` rows of `paired_differences`), LER, G and
+    CCT differences; `column` heads the estimator column, whose cells are
+    `label(estimator)` (default the estimator's name)."""
+    lines = [
+        "",
+        title,
+        "",
+        f"| compared | {column} | LER [lm/W] | G | CCT [K] |",
+        "|---|---|---|---|---|",
+    ]
+    for p in paired:
+        est = p["estimator"] if label is None else label(p["estimator"])
+        cells = " | ".join(diff_cells(p))
+        lines.append(f"| {p['band_set']} − {p['vs']} | {est} | {cells} |")
+    return lines
+
+
 def variant_text(
     summary: dict, variant: str, heading: str, what: str, change: str
 ) -> str:
@@ -125,21 +144,11 @@ def variant_text(
             + " | ".join(diff_cells(p, [(c, PAIRED_DIGITS[c]) for c in COLUMNS]))
             + " |"
         )
-    lines += [
-        "",
+    lines += reference_lines(
+        [p for p in summary["paired"] if p.get("vs") != BASE],
         "Reference sensors minus recommended bands, same estimator:",
-        "",
-        "| compared | estimator | LER [lm/W] | G | CCT [K] |",
-        "|---|---|---|---|---|",
-    ]
-    for p in summary["paired"]:
-        if p.get("vs") == BASE:
-            continue
-        lines.append(
-            f"| {p['band_set']} − {p['vs']} | {p['estimator']} | "
-            + " | ".join(diff_cells(p))
-            + " |"
-        )
+        "estimator",
+    )
     classes = (summary.get("extra") or {}).get("by_class") or {}
     if classes.get(BASE) and classes.get(variant):
         cells = []

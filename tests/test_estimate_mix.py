@@ -116,6 +116,17 @@ def test_resumable_records_keep_finished_units_and_drop_a_torn_line(tmp_path):
     assert not path.exists()
 
 
+def test_kept_units_are_read_back_on_resume(tmp_path):
+    from experiments.estimate import load_records
+    from experiments.estimate_mix import keep_unit
+
+    path = tmp_path / "records.jsonl"
+    a = [{"partition": 0, "band_set": "x", "LER": 1.0}]
+    b = [{"partition": 1, "band_set": "y", "LER": 2.0}]
+    assert keep_unit(path, a) is a and keep_unit(path, b) is b
+    assert load_records(path, keep=True, say=print) == (a + b, {(0, "x"), (1, "y")})
+
+
 @pytest.mark.parametrize("study", ["estimate_mix", "estimate_library"])
 def test_only_partitions_is_checked_before_any_work(study, capsys):
     import importlib
