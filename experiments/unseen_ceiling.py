@@ -13,9 +13,12 @@ regression (C = 1 and C = 0.01, classes balanced), trained on the measured
 lamps of the other scored classes. A class whose family has no other class
 (incandescent_halogen) cannot be named by such a classifier: it is skipped
 and reported. Also with the unscored measured lamps (led_rgb, lps) in
-training, as the inversion's prior holds them; with the spectra cut at
-780 nm, where the library's NIR extension begins; and, for comparison, the
-inversion's level-1 accuracy on the scenes as read from
+training, as the inversion's prior holds them; with, besides those,
+uncalibrated samples of every physical lamp model of `bandopt.lampmodels`
+(what physics says the technologies can emit, fitted to no measured lamp,
+`with_physical_models`); with the spectra cut at 780 nm, where the
+library's NIR extension begins; and, for comparison, the inversion's
+level-1 accuracy on the scenes as read from
 `results/estimate_mix/summary.json` (`unseen_types`; not recomputed).
 
     python -m experiments.unseen_ceiling [--out DIR]
@@ -25,9 +28,11 @@ per held-out class the accuracy and the fractions of its lamps given each
 family; the skipped classes; the same with the unscored lamps in training
 and cut at 780 nm; the inversion's numbers read from estimate_mix),
 `ceiling.png`, `manifest.json` and the `unseen-ceiling` section of
-`results/README.md` (default output only). Measured lamps only, no modelled
-lamps (beyond 780 nm a third of them are the library's NIR extension: see
-`visible_only`). Deterministic (no random draws; the solvers are seeded).
+`results/README.md` (default output only). Scored: measured lamps only;
+modelled lamps train in the `with_physical_models` variant only (beyond
+780 nm a third of the measured lamps are the library's NIR extension: see
+`visible_only`). Deterministic (the model samples are seeded, `MODEL_SEED`;
+the solvers too).
 """
 
 import argparse
@@ -60,6 +65,14 @@ INVERSION_LABELS = ("inversion-moon", "inversion-moon-mix")
 """The inversion runs of `INVERSION_SOURCE` shown beside the ceiling."""
 MAX_ITER = 5000
 """Iteration cap of the logistic regressions (converged well below it)."""
+MODEL_SAMPLES = 100
+"""Modelled lamps per physical model family in the `with_physical_models`
+variant."""
+MODEL_SPREAD = 1.0
+"""Standard deviation of those samples' unconstrained parameters z about the
+family's default start (`lampmodels.Family.z_init`) [1]."""
+MODEL_SEED = 0
+"""Seed of those samples."""
 
 
 def log(msg: str) -> None:
@@ -364,6 +377,37 @@ def _visible_line(vis: dict, res: dict, best: dict) -> str:
     return line + "."
 
 
+def _models_line(summary: dict) -> str | None:
+    """The README sentence on the `with_physical_models` variant: its best
+    class mean, the recommended bands', and where it stands against the goal."""
+    var = summary.get("with_physical_models")
+    if not var:
+        return None
+    mb, mr = var["best"], var["results"]
+    mf = _top(mr, mb)
+    top = mr[mf][mb[mf]]
+    fams = ", ".join(var["models"])
+    line = (
+        f"With uncalibrated samples of every physical lamp model "
+        f"(`bandopt.lampmodels`: {fams}; {var['samples_per_family']} per model, "
+        f"z normal of SD {var['z_spread']:g} about its default start, fitted to "
+        "no measured lamp; no fluorescent model exists) and the unscored lamps "
+        f"also in training: best class mean {_score(top):.2f} ({mf}, {mb[mf]}"
+        + (f"; worst {_worst(summary, top)}" if top["accuracy"] else "")
+        + ")"
+    )
+    if BANDS_FEATURE in mr:
+        b = mb[BANDS_FEATURE]
+        line += f"; recommended bands {_score(mr[BANDS_FEATURE][b]):.2f} ({b})"
+    reached = _score(top) >= summary["goal"]
+    line += (
+        ": at or above the goal." if reached else
+        f": below the goal of {summary['goal']:.2f} even with what physics says "
+        "these technologies can emit."
+    )  # fmt: skip
+    return line
+
+
 def readme_text(summary: dict) -> str:
     """The `unseen-ceiling` section of `results/README.md` from `summary.json`."""
     res, best = summary["results"], summary["best"]
@@ -421,6 +465,9 @@ def readme_text(summary: dict) -> str:
             line += f"; recommended bands {_score(ar[BANDS_FEATURE][b]):.2f} ({b})"
         lines.append(line + ".")
         lines.append("")
+    models = _models_line(summary)
+    if models:
+        lines += [models, ""]
     vis = summary.get("visible_only")
     if vis:
         lines += [_visible_line(vis, res, best), ""]
@@ -546,11 +593,48 @@ def figure(summary: dict, path: Path) -> None:
     plt.close(fig)
 
 
+def physical_model_spectra(
+    wavelength_nm, n_per_family: int, spread: float, seed: int
+) -> tuple[np.ndarray, list[str], list[str]]:
+    """Modelled lamps of every physical model family (`lampmodels.FAMILIES`),
+    calibrated on NO measured lamp: z drawn from a normal of SD `spread` about
+    the family's default start, through the family's bounds, one lumen each
+    (`lampmodels.per_lumen`).
+
+    Returns (spectra (n, w) [W nm⁻¹ lm⁻¹], level-1 family of each, model
+    family of each). What physics says a technology can emit, without the
+    library's lamps of it: for training only, never scored."""
+    # Lazy: the module's pure helpers are imported by the tests without JAX.
+    from bandopt import lampmodels
+    from bandopt.datasets.lamps import LEVEL2_PARENT
+
+    if n_per_family < 1 or not spread > 0:
+        raise ValueError(
+            f"n_per_family must be >= 1 and spread > 0 (got {n_per_family}, {spread})."
+        )
+    grid = np.asarray(wavelength_nm, float)
+    rng = np.random.default_rng(seed)
+    rows, level1, fams = [], [], []
+    for name, fam in lampmodels.FAMILIES.items():
+        parents = {LEVEL2_PARENT[c] for c in fam.classes}
+        if len(parents) != 1:
+            raise ValueError(f"model family {name!r} spans families {parents}.")
+        z = fam.z_init() + spread * rng.standard_normal((n_per_family, len(fam.params)))
+        sp = lampmodels.per_lumen(grid, lampmodels.model_spectra(fam, z, grid))
+        ok = np.all(np.isfinite(sp), axis=1)
+        rows.append(sp[ok])
+        level1 += [parents.pop()] * int(ok.sum())
+        fams += [name] * int(ok.sum())
+    return np.vstack(rows), level1, fams
+
+
 def _features(lamps, grid, band_weights) -> dict:
-    feats = {
-        f"{r} nm": binned_log_spectra(lamps.spectra, grid, r) for r in RESOLUTIONS_NM
-    }
-    feats[BANDS_FEATURE] = band_log_values(lamps.spectra, band_weights)
+    return _features_of(lamps.spectra, grid, band_weights)
+
+
+def _features_of(spectra, grid, band_weights) -> dict:
+    feats = {f"{r} nm": binned_log_spectra(spectra, grid, r) for r in RESOLUTIONS_NM}
+    feats[BANDS_FEATURE] = band_log_values(spectra, band_weights)
     return feats
 
 
@@ -595,6 +679,20 @@ def main(argv=None) -> int:
         scored=np.arange(len(both.ids)) < len(lamps.ids),
         say=log,
     )
+    log(
+        f"with the unscored measured lamps and {MODEL_SAMPLES} uncalibrated "
+        "samples of each physical lamp model also in training:"
+    )
+    m_sp, m_l1, m_fam = physical_model_spectra(
+        grid, MODEL_SAMPLES, MODEL_SPREAD, MODEL_SEED
+    )
+    with_models = ceiling(
+        _features_of(np.vstack([np.asarray(both.spectra), m_sp]), grid, w),
+        list(both.level1) + m_l1,
+        list(both.level2) + [f"model:{f}" for f in m_fam],
+        scored=np.arange(len(both.ids) + len(m_l1)) < len(lamps.ids),
+        say=log,
+    )
     vis = grid <= EXTENSION_START_NM
     log(f"spectra cut at {EXTENSION_START_NM:g} nm (measured for every lamp):")
     visible = ceiling(
@@ -626,6 +724,21 @@ def main(argv=None) -> int:
             "results": alt,
             "best": best_classifiers(alt),
         },
+        "with_physical_models": {
+            "models": {f: int(m_fam.count(f)) for f in sorted(set(m_fam))},
+            "level1": {f: l for f, l in sorted(zip(m_fam, m_l1, strict=True))},
+            "samples_per_family": MODEL_SAMPLES,
+            "z_spread": MODEL_SPREAD,
+            "seed": MODEL_SEED,
+            "note": "training also holds the unscored measured lamps and modelled "
+            "lamps of every physical model family of bandopt.lampmodels, "
+            "calibrated on no measured lamp (z normal about the family's default "
+            "start); they train and are never held out or scored; fluorescent "
+            "lamps have no physical model",
+            "modelled_lamps_used": True,
+            "results": with_models,
+            "best": best_classifiers(with_models),
+        },
         "visible_only": {
             "range_nm": [float(grid[vis][0]), float(grid[vis][-1])],
             "note": "binned spectra cut at the end of the range every lamp is "
@@ -649,7 +762,9 @@ def main(argv=None) -> int:
         "training_lamps": "measured lamps of the other scored classes "
         "(`with_unscored_training_lamps`: also the unscored measured lamps)",
         "scored_lamps": "measured lamps only",
-        "modelled_lamps_used": False,
+        "modelled_lamps_used": True,
+        "modelled_lamps_note": "only in the `with_physical_models` variant, "
+        "where they train and are never scored",
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     figure(summary, out / "ceiling.png")
@@ -676,7 +791,10 @@ def main(argv=None) -> int:
             "training_lamps": "measured lamps of the other scored classes; "
             "variant: also the unscored measured lamps",
             "visible_only_end_nm": EXTENSION_START_NM,
-            "modelled_lamps_used": False,
+            "model_samples_per_family": MODEL_SAMPLES,
+            "model_z_spread": MODEL_SPREAD,
+            "model_seed": MODEL_SEED,
+            "modelled_lamps_used": "variant with_physical_models only (training)",
         },
     )
     log(f"done: {out} ({time.time() - t0:.0f} s)")

@@ -282,6 +282,13 @@ def _summary(tmp_path, best_value=0.8):
             },
             "best": {"5 nm": "logistic C=1"},
         },
+        "with_physical_models": {
+            "models": {"hps": 3, "pc_led": 3},
+            "samples_per_family": 3,
+            "z_spread": 1.0,
+            "results": res,
+            "best": uc.best_classifiers(res),
+        },
         "inversion_on_scenes": uc.inversion_from_summary(_inversion_file(tmp_path)),
     }
 
@@ -306,6 +313,15 @@ def test_readme_table_from_a_small_summary(tmp_path):
     assert "(led_rgb 10, lps 2) also in training" in text
     assert "recommended bands 0.42 (logistic C=0.01)" in text
     assert "`inversion-moon` 0.40 (lamp mean 0.50)" in text
+    assert (
+        "With uncalibrated samples of every physical lamp model "
+        "(`bandopt.lampmodels`: hps, pc_led; 3 per model, z normal of SD 1 about "
+        "its default start, fitted to no measured lamp; no fluorescent model "
+        "exists) and the unscored lamps also in training: best class mean 0.80 "
+        "(5 nm, 1-NN; worst fl 0.60 (→ led 0.60), hg 1.00); recommended bands "
+        "0.42 (logistic C=0.01): below the goal of 0.90 even with what physics "
+        "says these technologies can emit." in text
+    )
     # 12 lamps (4 per class), 4 extended; hg drops by 0.5 with 5 nm 1-NN, fl
     # by 0.1 (not listed)
     assert (
@@ -327,6 +343,8 @@ def test_readme_does_not_claim_a_ceiling_the_numbers_do_not_show(tmp_path):
     text = uc.readme_text(_summary(tmp_path, best_value=0.95))
     assert "at or above the goal of 0.90" in text
     assert "no band set can" not in text
+    assert "recommended bands 0.42 (logistic C=0.01): at or above the goal." in text
+    assert "even with what physics" not in text
 
 
 def test_figure_is_written(tmp_path):
@@ -337,3 +355,47 @@ def test_figure_is_written(tmp_path):
     img = imread(path)
     assert img.ndim == 3 and img.shape[0] > 200 and img.shape[1] > 600
     assert np.ptp(img[..., :3]) > 0  # not blank
+
+
+# ------------------------------------------------ physical models in training
+
+
+def test_physical_model_lamps_are_one_lumen_labelled_and_seeded():
+    import colour
+
+    grid = np.arange(380.0, 901.0)
+    sp, level1, fams = uc.physical_model_spectra(grid, 3, 1.0, seed=5)
+    from bandopt import lampmodels
+
+    assert sp.shape == (3 * len(lampmodels.FAMILIES), grid.size)
+    assert sorted(set(fams)) == sorted(lampmodels.FAMILIES)
+    assert dict(zip(fams, level1, strict=True)) == {
+        "pc_led": "led", "hps": "hid", "lps": "lps", "mercury": "hid",
+        "metal_halide": "hid",
+    }  # fmt: skip
+    assert np.all(np.isfinite(sp)) and np.all(sp >= 0)
+    # one lumen by colour-science's CIE 1924 photopic V (683 lm/W)
+    v = colour.SDS_LEFS["CIE 1924 Photopic Standard Observer"]
+    vv = np.interp(grid, v.wavelengths, v.values, left=0.0, right=0.0)
+    lumens = 683.0 * np.trapezoid(sp * vv, grid, axis=1)
+    np.testing.assert_allclose(lumens, 1.0, rtol=2e-3)
+    again, _, _ = uc.physical_model_spectra(grid, 3, 1.0, seed=5)
+    np.testing.assert_array_equal(sp, again)
+    other, _, _ = uc.physical_model_spectra(grid, 3, 1.0, seed=6)
+    assert not np.allclose(sp, other)
+    # a wider spread gives more varied LEDs (blue share of the pc_led samples)
+    blue = grid < 490
+
+    def blue_share_sd(spread):
+        s, _, f = uc.physical_model_spectra(grid, 40, spread, seed=1)
+        led = s[np.asarray(f) == "pc_led"]
+        return np.std(np.trapezoid(led[:, blue], grid[blue], axis=1)
+                      / np.trapezoid(led, grid, axis=1))  # fmt: skip
+
+    assert blue_share_sd(1.5) > blue_share_sd(0.2)
+
+
+@pytest.mark.parametrize("n, spread", [(0, 1.0), (3, 0.0), (3, -1.0)])
+def test_physical_model_lamps_bad_input_is_refused(n, spread):
+    with pytest.raises(ValueError, match="n_per_family must be >= 1 and spread > 0"):
+        uc.physical_model_spectra(np.arange(380.0, 781.0), n, spread, seed=0)
