@@ -121,6 +121,43 @@ def test_library_listing_starts_without_jax_when_cached(tmp_path):
     assert len(list((tmp_path / "cache").glob("library-*.json"))) == 1
 
 
+def test_quick_compilations_reach_the_persistent_jax_cache(tmp_path):
+    """The CLI's environment (set before JAX is imported) and `configure()`
+    both cache every compiled program: a tiny jitted function, compiled in
+    milliseconds, is written to the cache directory (at the old 0.5 s
+    threshold nothing was)."""
+    code = (
+        "import os, sys\n"
+        "from bandopt.cli import _configure_environment\n"
+        "_configure_environment()\n"
+        "assert 'jax' not in sys.modules\n"
+        "print(os.environ['JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS'])\n"
+        "import jax\n"
+        "print(jax.jit(lambda x: x * 3.0 + 1.0)(2.0))\n"
+    )
+    env = {
+        **os.environ,
+        "PYTHONPATH": str(ROOT),
+        "BANDOPT_JAX_CACHE": str(tmp_path / "jax"),
+    }
+    p = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True
+    )
+    assert p.returncode == 0, p.stderr
+    threshold, value = p.stdout.split()
+    assert float(threshold) == 0.0 and float(value) == 7.0
+    assert any((tmp_path / "jax").iterdir())
+    from bandopt._config import CACHE_MIN_COMPILE_S, configure
+
+    import jax
+
+    configure(cache_dir=tmp_path / "jax2")
+    assert jax.config.jax_persistent_cache_min_compile_time_secs == (
+        CACHE_MIN_COMPILE_S
+    )
+    configure()  # back to the session's cache
+
+
 def test_cache_key_changes_with_the_package(tmp_path, monkeypatch):
     from bandopt.cli import _cache
 

@@ -138,7 +138,11 @@ def _configure_environment() -> None:
     Path(cache).mkdir(parents=True, exist_ok=True)
     os.environ["JAX_ENABLE_X64"] = "1"
     os.environ["JAX_COMPILATION_CACHE_DIR"] = cache
-    os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0.5"
+    # here, not at the top: the module's import stays light (`--help`); the
+    # constant's module imports JAX only inside `configure()`
+    from .._config import CACHE_MIN_COMPILE_S
+
+    os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = str(CACHE_MIN_COMPILE_S)
 
 
 def main(argv: list[str] | None = None) -> int:
