@@ -1137,6 +1137,45 @@ def own_lamps(
     )
 
 
+def tm30_lamps(wavelength_nm) -> LampSet:
+    """The measured lamps of the IES TM-30-15 set (`IES2015`; `library(
+    tm30=True)`, source set `ies_tm30`) that the library lacks, per lumen on a
+    grid, as prior lamps: commercial and experimental lamps of every
+    technology, classified and deduplicated by the library's own rules (a
+    copy of a library lamp is removed, the library's kept), 380-780 nm
+    measured and NIR-extended beyond like the NIST sets; coloured LEDs are
+    left out (`excluded`).
+
+    Why: the held-out error falls with the library's size (`make
+    estimate-library`), and these are real measured lamps the scored library
+    does not hold. They train, never score: no scene row belongs to them, so
+    every committed result stays comparable."""
+    lib = library(wavelength_nm=np.asarray(wavelength_nm, float), tm30=True)
+    keep = [
+        i
+        for i, r in enumerate(lib.records)
+        if r.source_set == "ies_tm30" and r.excluded is None and r.level2 is not None
+    ]
+    recs = [lib.records[i] for i in keep]
+    return LampSet(
+        tuple(r.id for r in recs),
+        np.asarray(lib.values[keep], float),
+        tuple(r.level1 for r in recs),
+        tuple(r.level2 for r in recs),
+    )
+
+
+def _with_tm30(always: LampSet | None, tm30: LampSet | None, drop_class=None):
+    """`always` plus the `tm30` lamps (None: none), less those of level-2
+    class `drop_class` (a class held out as unseen: measured lamps of it must
+    not train)."""
+    if tm30 is None:
+        return always
+    if drop_class is not None:
+        tm30 = tm30.take([i for i, c in enumerate(tm30.level2) if c != drop_class])
+    return tm30 if always is None else always + tm30
+
+
 def with_planck_lamps(always: LampSet | None, grid) -> LampSet:
     """`always` (None: no lamps) plus `planck_lamps`."""
     planck = planck_lamps(grid)
@@ -2037,6 +2076,11 @@ DEFAULT_ESTIMATOR = "inversion-moon-mix-metric-narrow-shift-planck"
 `PLANCK_ESTIMATOR`'s modelled incandescent spectra in every prior: what
 `bandopt evaluate` does by default."""
 
+TM30_ESTIMATOR = "inversion-moon-mix-metric-narrow-shift-planck-tm30"
+"""`DEFAULT_ESTIMATOR` with the measured IES TM-30-15 lamps the library lacks
+(`tm30_lamps`) in every prior, beside the never-scored measured lamps: they
+train, never score; its records say `tm30_in_prior`."""
+
 MODEL_NOISE_SEED_OFFSET = 15485863
 """Noise seed offset of modelled lamps' rows (a prime): with photon noise,
 their draws never share a seed with the measured rows' draws."""
@@ -2407,15 +2451,18 @@ def cross_validate(
                 SHIFT_ESTIMATOR,
                 PLANCK_ESTIMATOR,
                 DEFAULT_ESTIMATOR,
+                TM30_ESTIMATOR,
             ):
                 narrow = name in (
                     NARROW_ESTIMATOR,
                     SHIFT_ESTIMATOR,
                     PLANCK_ESTIMATOR,
                     DEFAULT_ESTIMATOR,
+                    TM30_ESTIMATOR,
                 )
-                planck = name in (PLANCK_ESTIMATOR, DEFAULT_ESTIMATOR)
-                shift = name in (SHIFT_ESTIMATOR, DEFAULT_ESTIMATOR)
+                planck = name in (PLANCK_ESTIMATOR, DEFAULT_ESTIMATOR, TM30_ESTIMATOR)
+                shift = name in (SHIFT_ESTIMATOR, DEFAULT_ESTIMATOR, TM30_ESTIMATOR)
+                tm30 = tm30_lamps(grid) if name == TM30_ESTIMATOR else None
                 if name == MIX_METRIC_ESTIMATOR and NARROW_ESTIMATOR in estimators:
                     continue  # scored from the narrow fit at offset 0
                 per = narrow or name == MIX_METRIC_ESTIMATOR
@@ -2436,8 +2483,9 @@ def cross_validate(
                         basis=basis,
                         surface_mode=mode,
                         row_surface=si,
-                        always=(
-                            with_planck_lamps(always, grid) if planck else always
+                        always=_with_tm30(
+                            with_planck_lamps(always, grid) if planck else always,
+                            tm30,
                         ),
                         modelled_per_class=n_model,
                         modelled_classes=modelled_classes,
@@ -2567,8 +2615,10 @@ def cross_validate(
                     rec["sigma_rel"] = inv.sigma_rel
                     if inv.metric_sigma:
                         rec["metric_noise"] = [list(x) for x in inv.metric_noise]
-                    if name in (PLANCK_ESTIMATOR, DEFAULT_ESTIMATOR):
+                    if name in (PLANCK_ESTIMATOR, DEFAULT_ESTIMATOR, TM30_ESTIMATOR):
                         rec["modelled_in_prior"] = list(planck_lamps(grid).ids)
+                    if name == TM30_ESTIMATOR:
+                        rec["tm30_in_prior"] = len(tm30_lamps(grid).ids)
                 if modelled_per_class > 0:
                     rec.update(model_info.get(name) or _modelled_fields(inv))
                 out.append(rec)
@@ -2803,6 +2853,7 @@ def leave_one_class_out(
     interval_offsets: Sequence[float] = (0.0,),
     peak_shifts: Sequence[float] = (),
     planck: bool = False,
+    tm30: bool = False,
 ):
     """Unseen lamp types: for every scored level-2 class, fit on all other
     classes (inner folds: 2 class-stratified lamp folds of those) and score its
@@ -2829,7 +2880,10 @@ def leave_one_class_out(
     direct-emission LEDs (`fit_inversion(peak_shifts=)`; never of the
     held-out class's lamps, which are in no prior). `planck`: the library's
     modelled incandescent spectra in every prior (`planck_lamps`; the
-    records then say `modelled_in_prior`)."""
+    records then say `modelled_in_prior`). `tm30`: the measured IES TM-30-15
+    lamps in every prior (`tm30_lamps`) except those of the held-out class
+    (measured lamps of an unseen type must not train; the records then say
+    `tm30_in_prior`, the number in that class's prior)."""
     two = len(interval_offsets) > 1
     if two and 0.0 not in [float(x) for x in interval_offsets]:
         raise ValueError(
@@ -2840,6 +2894,7 @@ def leave_one_class_out(
     modelled_in_prior = planck_lamps(grid) if planck else None
     if planck:
         always = with_planck_lamps(always, grid)
+    extra = tm30_lamps(grid) if tm30 else None
     rad = ctx.radiance(bands)
     w = band_weights_on(bands, grid)
     row_lamp = np.asarray(ctx.table.lamp_of)
@@ -2853,6 +2908,7 @@ def leave_one_class_out(
         train = np.flatnonzero(classes != c)
         folds = stratified_lamp_folds(classes[train], 2, seed)
         inner = [(np.setdiff1d(train, train[v]), np.sort(train[v])) for v in folds]
+        prior_always = _with_tm30(always, extra, drop_class=c)
         inv = fit_inversion(
             rad,
             row_lamp,
@@ -2864,7 +2920,7 @@ def leave_one_class_out(
             basis=basis,
             surface_mode=surface_mode,
             row_surface=si,
-            always=always,
+            always=prior_always,
             modelled_per_class=modelled_per_class,
             modelled_classes=modelled_classes,
             modelled_seed=seed,
@@ -2879,6 +2935,11 @@ def leave_one_class_out(
         _check_never_scored(inv, [lamps.ids[i] for i in test])
         if c in inv.diagnostics["modelled_lamps"]["added"]:
             raise RuntimeError(f"held-out class {c} got modelled lamps (a leak).")
+        if any(
+            "ies_tm30_" in i and l2 == c
+            for i, l2 in zip(inv.prior.ids, inv.prior.level2, strict=True)
+        ):
+            raise RuntimeError(f"held-out class {c} has IES TM-30 lamps (a leak).")
         rows = np.flatnonzero(np.isin(row_lamp, test))
         sub = (
             None
@@ -2923,6 +2984,10 @@ def leave_one_class_out(
                 rec["intervals"] = tag
             if modelled_in_prior is not None:
                 rec["modelled_in_prior"] = list(modelled_in_prior.ids)
+            if extra is not None:
+                rec["tm30_in_prior"] = sum(
+                    i.startswith("ies_tm30_") for i in prior_always.ids
+                )
             if modelled_per_class > 0:
                 rec.update(_modelled_fields(inv))
             out.append(rec)

@@ -106,12 +106,18 @@ def reference_lines(paired, title: str, column: str, label=None) -> list[str]:
 
 
 def variant_text(
-    summary: dict, variant: str, heading: str, what: str, change: str
+    summary: dict,
+    variant: str,
+    heading: str,
+    what: str,
+    change: str,
+    base: str = BASE,
 ) -> str:
-    """The README section of a study that scores `BASE` against `variant`
-    (the same estimator with something added to every prior, said by
-    `what`): rows, paired differences, per class (`change`: how the per-class
-    sentence names the two, e.g. "without → with shifts"), unseen types."""
+    """The README section of a study that scores `base` (default `BASE`)
+    against `variant` (the same estimator with something added to every
+    prior, said by `what`): rows, paired differences, per class (`change`:
+    how the per-class sentence names the two, e.g. "without → with shifts"),
+    unseen types."""
     lines = [
         heading,
         "",
@@ -129,7 +135,7 @@ def variant_text(
     lines += [row_line(r, surface=False) for r in summary["rows"]]
     lines += [
         "",
-        f"Paired by partition, `{variant}` minus `{BASE}` (negative = better or "
+        f"Paired by partition, `{variant}` minus `{base}` (negative = better or "
         "narrower):",
         "",
         "| band set | LER [lm/W] | G | CCT [K] | CCT [mired] | coverage LER "
@@ -137,7 +143,7 @@ def variant_text(
         "|---|---|---|---|---|---|---|",
     ]
     for p in summary["paired"]:
-        if p.get("vs") != BASE:
+        if p.get("vs") != base:
             continue
         lines.append(
             f"| {p['band_set']} | "
@@ -145,15 +151,15 @@ def variant_text(
             + " |"
         )
     lines += reference_lines(
-        [p for p in summary["paired"] if p.get("vs") != BASE],
+        [p for p in summary["paired"] if p.get("vs") != base],
         "Reference sensors minus recommended bands, same estimator:",
         "estimator",
     )
     classes = (summary.get("extra") or {}).get("by_class") or {}
-    if classes.get(BASE) and classes.get(variant):
+    if classes.get(base) and classes.get(variant):
         cells = []
-        for c in classes[BASE]:
-            a, b = classes[BASE][c], classes[variant].get(c, {})
+        for c in classes[base]:
+            a, b = classes[base][c], classes[variant].get(c, {})
             if a.get("LER") is None or b.get("LER") is None:
                 continue
             cells.append(

@@ -17,6 +17,7 @@ technology of a class (`technology_of`) are here because the measured spectra
 are selected and labelled with them; `nir` re-exports them.
 """
 
+import csv
 import dataclasses
 import functools
 import json
@@ -69,9 +70,12 @@ SOURCE_PRIORITY = (
     "color_pollution",
     "photobiology",
     "lspdd",
+    "ies_tm30",
 )
 """Which copy of a duplicate is kept: the first source listed. The old sources
-come first so the ids other modules name (e.g. `nist_traditional_hps`) stay."""
+come first so the ids other modules name (e.g. `nist_traditional_hps`) stay;
+the IES TM-30-15 set (only with `tm30=True`) comes last, so it never displaces
+a lamp of the default library."""
 AMBER_MIN_PURITY = 0.9
 AMBER_DOMINANT_NM = (575.0, 610.0)
 PC_AMBER_MIN_BLUE = 0.002
@@ -117,6 +121,7 @@ _LI1800 = _DATA / "lamps_li1800"
 _LSPDD = _DATA / "lamps_lspdd"
 _PHOTOBIOLOGY = _DATA / "lamps_photobiology"
 _COLOR_POLLUTION = _DATA / "lamps_color_pollution"
+_IES_TM30 = _DATA / "lamps_ies_tm30"
 
 
 def _slug(text: str) -> str:
@@ -428,11 +433,94 @@ def lspdd_enabled(lspdd: bool | None = None) -> bool:
     )
 
 
-def _raw_sources(lspdd: bool = True) -> list[_Raw]:
+TM30_MEASURED = ("Commercial", "Experimental")
+"""`category` values of the IES TM-30-15 set that are measured sources (the
+others are `Model` and `Theoretical`: computed spectra, never read)."""
+
+_TM30_TYPE = {
+    "Fluorescent Broadband": "fluorescent_linear",
+    "Fluorescent Narrowband": "fluorescent_linear",
+    "Incandescent/Filament": "incandescent_halogen",
+    "LED Phosphor": None,
+    "LED Hybrid": None,
+    "LED Mixed": "led_rgb",
+}
+"""IES TM-30-15 `type` -> level 2 (None: an LED, classified by its spectrum
+like the library's other LEDs). Every fluorescent entry is a linear tube
+(F32T8, F34T12, F40T12); "Incandescent/Filament" holds halogen, incandescent
+and filtered (neodymium) filament lamps, as the library's class does. High
+intensity discharge lamps are classified by name (`_TM30_HID`); the type
+"Other" (a plasma lamp) is not a class of the library and is not read."""
+
+_TM30_HID = (("HPS", "hps"), ("Metal Halide", "metal_halide"), ("Mercury", "mercury"))
+"""Name fragment -> level 2 of the IES TM-30-15 "High Intensity Discharge"
+entries (e.g. "C100S54 (1) - HPS Standard", "CDM 830 (1) - Metal Halide")."""
+
+
+def _tm30_level2(name: str, kind: str) -> str | None:
+    if kind == "High Intensity Discharge":
+        for key, level2 in _TM30_HID:
+            if key in name:
+                return level2
+        raise ValueError(
+            f"{_IES_TM30 / 'IESTM30_15_Sinfo.txt'}: discharge lamp {name!r} is "
+            "neither HPS, metal halide nor mercury."
+        )
+    return _TM30_TYPE[kind]
+
+
+def _tm30_sources() -> list[_Raw]:
+    """The measured lamps of the IES TM-30-15 set (`IES2015`, vendored from
+    LuxPy, `Smet2020`): every `TM30_MEASURED` entry of a lamp technology
+    (`_TM30_TYPE`, `_TM30_HID`), ids `ies_tm30_<nr>_<name>`."""
+    spd_path = _IES_TM30 / "IESTM30_15_Sspds.dat"
+    info_path = _IES_TM30 / "IESTM30_15_Sinfo.txt"
+    data = np.loadtxt(spd_path, delimiter=",")
+    with info_path.open(newline="") as fh:
+        rows = [r for r in csv.reader(fh)][1:]
+    if data.ndim != 2 or data.shape[1] != len(rows) + 1:
+        raise ValueError(
+            f"{spd_path}: {data.shape[1] - 1 if data.ndim == 2 else '?'} spectra "
+            f"for the {len(rows)} sources of {info_path.name}."
+        )
+    w = data[:, 0]
+    if np.any(np.diff(w) <= 0) or w[0] > 380.0 or w[-1] < 780.0:
+        raise ValueError(f"{spd_path}: wavelength column must rise over 380-780 nm.")
+    raws = []
+    for j, r in enumerate(rows):
+        if len(r) < 4:
+            raise ValueError(f"{info_path}: row {j + 2} has {len(r)} fields, not 4.")
+        nr, name, kind, category = (x.strip() for x in r[:4])
+        if category not in TM30_MEASURED or kind == "Other":
+            continue
+        if kind not in _TM30_TYPE and kind != "High Intensity Discharge":
+            raise ValueError(f"{info_path}: row {j + 2}: unknown type {kind!r}.")
+        values = data[:, j + 1].copy()
+        if np.any(values < 0) or not np.any(values > 0):
+            raise ValueError(
+                f"{spd_path}: source {nr} ({name}) has negative or no power."
+            )
+        raws.append(
+            _Raw(
+                f"ies_tm30_{int(nr):03d}_{_slug(name)}",
+                name,
+                "IES2015",
+                "ies_tm30",
+                _tm30_level2(name, kind),
+                w.copy(),
+                values,
+            )
+        )
+    return raws
+
+
+def _raw_sources(lspdd: bool = True, tm30: bool = False) -> list[_Raw]:
     raws = _colour_sources() + _li1800_sources()
     raws += _color_pollution_sources() + _photobiology_sources()
     if lspdd:
         raws += _lspdd_sources()
+    if tm30:
+        raws += _tm30_sources()
     return raws
 
 
@@ -576,9 +664,9 @@ def _dedup(raws: list[_Raw]) -> tuple[list[int], dict[int, list[str]], list]:
 
 
 @functools.cache
-def _classified(lspdd: bool) -> tuple:
+def _classified(lspdd: bool, tm30: bool = False) -> tuple:
     """Raw spectra, their classification, and the deduplication (cached)."""
-    raws = _raw_sources(lspdd)
+    raws = _raw_sources(lspdd, tm30)
     metrics = _colour_metrics(raws)
     classified = [
         _classify(r, {k: v[i] for k, v in metrics.items()}) for i, r in enumerate(raws)

@@ -121,6 +121,7 @@ LICENCES = {
     "nist_led": "NIST data via colour-science (BSD-3-Clause)",
     "cie015": "CIE 015:2018 data via colour-science (BSD-3-Clause)",
     "planck": "modelled",
+    "ies_tm30": "GPL-3.0 (IES TM-30-15 spectra via LuxPy, verbatim)",
 }
 
 
@@ -331,11 +332,14 @@ def _nir_note(extended, measured, tech, validated, end_nm, quality=None):
 
 @functools.cache
 def _build(
-    extend_nir: bool, grid_key: tuple[float, float, float], lspdd: bool = True
+    extend_nir: bool,
+    grid_key: tuple[float, float, float],
+    lspdd: bool = True,
+    tm30: bool = False,
 ) -> LampLibrary:
     lo, hi, step = grid_key
     grid = np.arange(lo, hi + step / 2, step)
-    raws, classified, kept, dup_of, removed = _classified(lspdd)
+    raws, classified, kept, dup_of, removed = _classified(lspdd, tm30)
     with_nir = classes_with_measured_nir(lspdd)
 
     values, records = [], []
@@ -457,14 +461,20 @@ def library(
     extend_nir: bool = True,
     wavelength_nm: Sequence[float] | np.ndarray = GRID_1NM,
     lspdd: bool | None = None,
+    tm30: bool = False,
 ) -> LampLibrary:
     """The lamp library on a uniform grid (default 380-900 nm at 1 nm).
 
     `extend_nir=False` leaves values beyond each spectrum's measured range NaN
     (unknown), so a band reaching there fails loudly rather than reading zeros.
     `lspdd=False` (or the environment variable `BANDOPT_LSPDD=0` when `lspdd`
-    is None) builds it without the LSPDD set (CC BY-NC-ND). Built once per
-    argument set and cached in memory.
+    is None) builds it without the LSPDD set (CC BY-NC-ND). `tm30=True` adds
+    the measured lamps of the IES TM-30-15 set (`IES2015`, source set
+    `ies_tm30`, 380-780 nm, NIR extended) that are not duplicates of the
+    others; off by default, so the scored library and every committed result
+    are without them (`bandopt.inversion.tm30_lamps` gives them as prior
+    lamps that train and never score). Built once per argument set and cached
+    in memory.
     """
     w = np.asarray(wavelength_nm, float)
     step = np.diff(w)
@@ -479,4 +489,5 @@ def library(
         bool(extend_nir),
         (float(w[0]), float(w[-1]), float(step[0])),
         lspdd_enabled(lspdd),
+        bool(tm30),
     )
