@@ -10,7 +10,7 @@ SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: run test test-slow lint bench atmospheres surfaces library lamp-models ler \
         g cct sweep compare classify classify-partitions radiometry spatial \
-        noise-aware estimate estimate-moon estimate-mix estimate-noise estimate-intervals estimate-shift estimate-planck estimate-defaults estimate-library unseen-ceiling \
+        noise-aware estimate estimate-moon estimate-mix estimate-noise estimate-intervals estimate-shift estimate-planck estimate-defaults estimate-library estimate-tm30 unseen-ceiling \
         before-after report check-report docs tutorial clean
 
 $(STAMP): pyproject.toml requirements.lock
@@ -95,6 +95,9 @@ estimate-defaults: $(STAMP)  ## bandopt evaluate's estimator as a whole (shifted
 
 estimate-library: $(STAMP)  ## what a lamp the library lacks costs: bandopt evaluate's estimator on held-out lamps and on lamps its prior holds, the same lamps paired, our bands and the two best reference sensors; surface knowledge; library size; 4 lamp partitions (resumable: ARGS=--resume)
 	$(BIN)/python -m experiments.estimate_library $(ARGS)
+
+estimate-tm30: $(STAMP)  ## more measured lamps in the prior: bandopt evaluate's estimator without vs with the 210 measured IES TM-30-15 lamps the library lacks (train only), our bands and the two best reference sensors, 4 lamp partitions, paired; unseen types (resumable: ARGS=--resume)
+	$(BIN)/python -m experiments.estimate_tm30 $(ARGS)
 
 unseen-ceiling: $(STAMP)  ## the level-1 family of unseen lamp types from bare lamp spectra (5-50 nm) and the recommended bands, classifiers trained on the other classes: the ceiling of issue 12's 90 % goal (under a minute)
 	$(BIN)/python -m experiments.unseen_ceiling $(ARGS)

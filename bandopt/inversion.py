@@ -1165,12 +1165,11 @@ def tm30_lamps(wavelength_nm) -> LampSet:
     )
 
 
-def _with_tm30(always: LampSet | None, tm30: LampSet | None, drop_class=None):
-    """`always` plus the `tm30` lamps (None: none), less those of level-2
+def with_tm30_lamps(always: LampSet | None, grid, drop_class=None) -> LampSet:
+    """`always` (None: no lamps) plus `tm30_lamps`, less those of level-2
     class `drop_class` (a class held out as unseen: measured lamps of it must
     not train)."""
-    if tm30 is None:
-        return always
+    tm30 = tm30_lamps(grid)
     if drop_class is not None:
         tm30 = tm30.take([i for i, c in enumerate(tm30.level2) if c != drop_class])
     return tm30 if always is None else always + tm30
@@ -2462,7 +2461,6 @@ def cross_validate(
                 )
                 planck = name in (PLANCK_ESTIMATOR, DEFAULT_ESTIMATOR, TM30_ESTIMATOR)
                 shift = name in (SHIFT_ESTIMATOR, DEFAULT_ESTIMATOR, TM30_ESTIMATOR)
-                tm30 = tm30_lamps(grid) if name == TM30_ESTIMATOR else None
                 if name == MIX_METRIC_ESTIMATOR and NARROW_ESTIMATOR in estimators:
                     continue  # scored from the narrow fit at offset 0
                 per = narrow or name == MIX_METRIC_ESTIMATOR
@@ -2470,6 +2468,7 @@ def cross_validate(
                 told = mix or name in (MOON_ESTIMATOR, MOON_UNSEEN_ESTIMATOR)
                 moon_rows = context_moon(ctx) if told else None
                 n_model = modelled_per_class if name == "inversion+models" else 0
+                prior_always = with_planck_lamps(always, grid) if planck else always
                 for mode in surface_modes:
                     si = surf_in[mode]
                     inv = fit_inversion(
@@ -2483,9 +2482,10 @@ def cross_validate(
                         basis=basis,
                         surface_mode=mode,
                         row_surface=si,
-                        always=_with_tm30(
-                            with_planck_lamps(always, grid) if planck else always,
-                            tm30,
+                        always=(
+                            with_tm30_lamps(prior_always, grid)
+                            if name == TM30_ESTIMATOR
+                            else prior_always
                         ),
                         modelled_per_class=n_model,
                         modelled_classes=modelled_classes,
@@ -2894,7 +2894,6 @@ def leave_one_class_out(
     modelled_in_prior = planck_lamps(grid) if planck else None
     if planck:
         always = with_planck_lamps(always, grid)
-    extra = tm30_lamps(grid) if tm30 else None
     rad = ctx.radiance(bands)
     w = band_weights_on(bands, grid)
     row_lamp = np.asarray(ctx.table.lamp_of)
@@ -2908,7 +2907,9 @@ def leave_one_class_out(
         train = np.flatnonzero(classes != c)
         folds = stratified_lamp_folds(classes[train], 2, seed)
         inner = [(np.setdiff1d(train, train[v]), np.sort(train[v])) for v in folds]
-        prior_always = _with_tm30(always, extra, drop_class=c)
+        prior_always = (
+            with_tm30_lamps(always, grid, drop_class=c) if tm30 else always
+        )
         inv = fit_inversion(
             rad,
             row_lamp,
@@ -2984,7 +2985,7 @@ def leave_one_class_out(
                 rec["intervals"] = tag
             if modelled_in_prior is not None:
                 rec["modelled_in_prior"] = list(modelled_in_prior.ids)
-            if extra is not None:
+            if tm30:
                 rec["tm30_in_prior"] = sum(
                     i.startswith("ies_tm30_") for i in prior_always.ids
                 )

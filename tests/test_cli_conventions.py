@@ -147,9 +147,9 @@ def test_quick_compilations_reach_the_persistent_jax_cache(tmp_path):
     threshold, value = p.stdout.split()
     assert float(threshold) == 0.0 and float(value) == 7.0
     assert any((tmp_path / "jax").iterdir())
-    from bandopt._config import CACHE_MIN_COMPILE_S, configure
-
     import jax
+
+    from bandopt._config import CACHE_MIN_COMPILE_S, configure
 
     configure(cache_dir=tmp_path / "jax2")
     assert jax.config.jax_persistent_cache_min_compile_time_secs == (

@@ -130,7 +130,7 @@ def test_evaluate_puts_your_lamps_into_the_prior(monkeypatch, tmp_path, lib, cap
     args = types.SimpleNamespace(
         estimator="inversion", modelled_per_class=0, intervals="any-type",
         mixtures=0, sigma="per-metric", interval_unit="narrowest",
-        peak_shifts="off", planck="on", own_lamps=own,
+        peak_shifts="off", planck="on", tm30="off", own_lamps=own,
     )  # fmt: skip
     ctx = _fake_context(case)
     ctx.table.n_lamps = len(lamps.ids)

@@ -103,6 +103,17 @@ def register(subparsers):
         "spectra train, never score, and the JSON lists them in "
         f"modelled_in_prior (default {PLANCK_DEFAULT}; results/estimate_planck)",
     )
+    p.add_argument(
+        "--tm30",
+        choices=("on", "off"),
+        default=TM30_DEFAULT,
+        help="inversion only: also put the measured lamps of the IES TM-30-15 "
+        "source library that the library lacks (210: commercial and experimental "
+        "LED, fluorescent, HID and filament lamps; IES2015, vendored from LuxPy) "
+        "into the prior; measured lamps that train, never score, and the JSON "
+        f"counts them in tm30_lamps_in_prior (default {TM30_DEFAULT}; "
+        "results/estimate_tm30)",
+    )
     add_list_option(
         p,
         "--prior-lamps",
@@ -184,6 +195,9 @@ PEAK_SHIFTS_DEFAULT = "on"
 
 PLANCK_DEFAULT = "on"
 """Default of `--planck` (see `results/estimate_planck/`)."""
+
+TM30_DEFAULT = "off"
+"""Default of `--tm30` (see `results/estimate_tm30/`)."""
 
 SIGMA_RULES = {"per-metric": "per-metric", "joint": "error"}
 """`--sigma` choice -> `bandopt.inversion.fit_inversion(sigma_rule=)`."""
@@ -344,10 +358,14 @@ def _fit(args, ctx, bands, mode):
             surface_mode=mode,
             row_surface=row_surface,
             always=_with_own_lamps(
-                (
-                    inv_mod.with_planck_lamps(always, grid)
-                    if args.planck == "on"
-                    else always
+                _with_tm30(
+                    (
+                        inv_mod.with_planck_lamps(always, grid)
+                        if args.planck == "on"
+                        else always
+                    ),
+                    args.tm30 == "on",
+                    grid,
                 ),
                 getattr(args, "own_lamps", None),
                 grid,
@@ -380,11 +398,23 @@ def _fit(args, ctx, bands, mode):
         n_mix = inv.diagnostics["mixtures"]["n"]
         shifted = inv.diagnostics["peak_shifts"]
         n_planck = sum(i.startswith("planck_") for i in inv.prior.ids)
+        n_tm30 = sum(i.startswith("ies_tm30_") for i in inv.prior.ids)
         own = [i for i in inv.prior.ids if i.startswith("own:")]
         n_measured = (
-            len(inv.prior.ids) - n_model - n_mix - shifted["n"] - n_planck - len(own)
+            len(inv.prior.ids)
+            - n_model
+            - n_mix
+            - shifted["n"]
+            - n_planck
+            - n_tm30
+            - len(own)
         )
         prior = f"{n_measured} measured library lamps"
+        if n_tm30:
+            prior += (
+                f", {n_tm30} measured lamps of the IES TM-30-15 set (they train, "
+                "never score)"
+            )
         if n_planck:
             prior += (
                 f", {n_planck} modelled incandescent spectra (Planck's law; they "
@@ -471,6 +501,13 @@ def prior_lamp_names(paths) -> list[str]:
     return [
         str(p) if names.count(n) > 1 else n for p, n in zip(paths, names, strict=True)
     ]
+
+
+def _with_tm30(always, on: bool, grid):
+    """`always` plus the IES TM-30-15 lamps when `on` (`--tm30`)."""
+    from .. import inversion as inv_mod
+
+    return inv_mod.with_tm30_lamps(always, grid) if on else always
 
 
 def _with_own_lamps(always, own, grid):
@@ -639,6 +676,11 @@ def run(args) -> int:
             f"--planck {args.planck}: the Planck spectra go into the prior of "
             f"--estimator inversion only (got --estimator {args.estimator})."
         )
+    if args.tm30 != TM30_DEFAULT and args.estimator != "inversion":
+        raise ValueError(
+            f"--tm30 {args.tm30}: the TM-30 lamps go into the prior of "
+            f"--estimator inversion only (got --estimator {args.estimator})."
+        )
     if args.peak_shifts != PEAK_SHIFTS_DEFAULT and args.estimator != "inversion":
         raise ValueError(
             f"--peak-shifts {args.peak_shifts}: shifted LEDs go into the prior of "
@@ -760,6 +802,11 @@ def run(args) -> int:
             model.diagnostics.get("peak_shifts", {}).get("shifts_nm", [])
             if args.estimator == "inversion"
             else []
+        ),
+        "tm30_lamps_in_prior": (
+            sum(i.startswith("ies_tm30_") for i in model.prior.ids)
+            if args.estimator == "inversion"
+            else 0
         ),
         "sigma_rel": _sigma_json(model, args.estimator),
         "prior_lamps": [
