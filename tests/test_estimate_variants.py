@@ -12,6 +12,7 @@ from experiments import (
     estimate_defaults as ed,
     estimate_planck as ep,
     estimate_shift as es,
+    estimate_tm30 as et,
 )
 from experiments.estimate_mix import manifest_config
 
@@ -128,8 +129,40 @@ def test_planck_match_against_the_library():
     assert lo <= 0.0 <= hi or np.isclose(lo, hi)
 
 
+def test_tm30_study_pairs_evaluates_estimator_with_and_without_them():
+    assert et.TM30 == inv_mod.TM30_ESTIMATOR
+    assert et.STUDY.estimators == (ed.DEFAULT, et.TM30)
+    assert et.STUDY.pairs == ((et.TM30, ed.DEFAULT),)
+    base, var = et.STUDY.unseen
+    assert base[-1] == {"peak_shifts": es.SHIFTS, "planck": True}
+    assert var[-1] == {"peak_shifts": es.SHIFTS, "planck": True, "tm30": True}
+    counts = et.tm30_counts()
+    assert counts["lamps"] == sum(counts["by_class"].values()) > 150
+    assert counts["duplicates_removed"] > 20
+
+
+def test_tm30_text_compares_with_evaluates_estimator():
+    recs = _records(ed.DEFAULT, {"led_amber": 20.0, "hps": 7.0})
+    recs += _records(et.TM30, {"led_amber": 20.0, "hps": 5.0})
+    rows = inv_mod.summarise(recs)
+    paired = inv_mod.estimator_differences(rows, et.STUDY.pairs, es.COLUMNS)
+    counts = {"lamps": 5, "by_class": {"hps": 3, "led_warm": 2},
+              "duplicates_removed": 4, "excluded": 1}  # fmt: skip
+    text = et.readme_text(
+        {"partitions": 2, "rows": rows, "paired": paired, "unseen_types": {},
+         "extra": {"by_class": es.by_class(recs, (ed.DEFAULT, et.TM30)),
+                   "tm30": counts}}
+    )  # fmt: skip
+    assert f"`{et.TM30}` minus `{ed.DEFAULT}`" in text
+    assert "| recommended | -1.0 ± 0.0 |" in text
+    assert "without → with the TM-30 lamps: hps (2) 7.5 → 5.5 lm/W" in text
+    assert "The TM-30 lamps in the prior: 5 (hps 3, led_warm 2); 4 of" in text
+
+
 @pytest.mark.parametrize(
-    "module", [es, ep, ed], ids=["estimate-shift", "estimate-planck", "defaults"]
+    "module",
+    [es, ep, ed, et],
+    ids=["estimate-shift", "estimate-planck", "defaults", "tm30"],
 )
 def test_committed_section_is_generated_from_the_committed_summary(module):
     import json
