@@ -904,6 +904,12 @@ def library_lamps(wavelength_nm, *, scored: bool) -> LampSet:
         )
         and (r.level2 is not None or not scored)
     ]
+    return _lamp_set(lib, keep)
+
+
+def _lamp_set(lib, keep) -> LampSet:
+    """The library records `keep` (indices) as a `LampSet`; a record without a
+    level-2 class (an unscored kind) gets its level 1 in its place."""
     recs = [lib.records[i] for i in keep]
     return LampSet(
         tuple(r.id for r in recs),
@@ -1084,13 +1090,7 @@ def planck_lamps(wavelength_nm) -> LampSet:
         for i, r in enumerate(lib.records)
         if r.modelled and r.level1 == "incandescent"
     ]
-    recs = [lib.records[i] for i in keep]
-    return LampSet(
-        tuple(r.id for r in recs),
-        np.asarray(lib.values[keep], float),
-        tuple(r.level1 for r in recs),
-        tuple(r.level2 for r in recs),
-    )
+    return _lamp_set(lib, keep)
 
 
 def own_lamps(
@@ -1156,13 +1156,7 @@ def tm30_lamps(wavelength_nm) -> LampSet:
         for i, r in enumerate(lib.records)
         if r.source_set == "ies_tm30" and r.excluded is None and r.level2 is not None
     ]
-    recs = [lib.records[i] for i in keep]
-    return LampSet(
-        tuple(r.id for r in recs),
-        np.asarray(lib.values[keep], float),
-        tuple(r.level1 for r in recs),
-        tuple(r.level2 for r in recs),
-    )
+    return _lamp_set(lib, keep)
 
 
 def with_tm30_lamps(always: LampSet | None, grid, drop_class=None) -> LampSet:

@@ -223,6 +223,40 @@ def test_sampling_is_seeded_and_put_on_a_coarser_grid_per_lumen(case):
     )
 
 
+def patch_case(monkeypatch, case, *, moon=True):
+    """Make the inversion's context helpers return the small case: its lamps
+    (`context_setup`, clear sky, asphalt) and, with `moon`, a moonless
+    brightness per row (`context_moon`)."""
+    lamps, row_lamp, *_ = case
+    setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
+    monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
+    if moon:
+        monkeypatch.setattr(inv_mod, "context_moon", lambda c: np.zeros(len(row_lamp)))
+
+
+class StopAtFitError(Exception):
+    """Raised by `stop_at_fit`'s `fit_inversion` once it has its arguments."""
+
+
+def stop_at_fit(monkeypatch, case) -> tuple[object, dict]:
+    """Patch the inversion so `bandopt evaluate`'s `_fit` stops at
+    `fit_inversion` (raising `StopAtFitError`) on the small case; returns
+    the context to pass and the dict the call's keyword arguments go into."""
+    seen: dict = {}
+
+    def fake_fit(*a, **kw):
+        seen.update(kw)
+        raise StopAtFitError
+
+    patch_case(monkeypatch, case)
+    monkeypatch.setattr(inv_mod, "fit_inversion", fake_fit)
+    basis = inv_mod._basis(GRID)
+    monkeypatch.setattr(inv_mod, "surface_basis", lambda grid: basis)
+    ctx = _fake_context(case)
+    ctx.table.n_lamps = len(case[0].ids)
+    return ctx, seen
+
+
 def _fake_context(case):
     """Just what `cross_validate` reads of a `search.Context`, on the small case
     (its `context_setup` is patched to return the case's lamps)."""
@@ -376,6 +410,7 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             interval_unit=unit,
             peak_shifts=shifts,
             planck=planck,
+            tm30="off",
             # one of your own lamps in the prior (`--prior-lamps hps=my.csv`)
             own_lamps=(["my.csv"], own_hps, ["hps"]) if n else None,
         )

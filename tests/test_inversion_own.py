@@ -105,25 +105,10 @@ def test_evaluate_puts_your_lamps_into_the_prior(monkeypatch, tmp_path, lib, cap
     from bandopt.cli import _cmd_evaluate, main
     from bandopt.spectra import GRID_1NM
     from tests._bands import FIVE
-    from tests.test_inversion_models import _case, _fake_context
+    from tests.test_inversion_models import StopAtFitError, _case, stop_at_fit
 
     case = _case()
-    seen = {}
-
-    class StopError(Exception):
-        pass
-
-    def fake_fit(*a, **kw):
-        seen.update(kw)
-        raise StopError
-
-    lamps, row_lamp, *_ = case
-    setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
-    monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
-    monkeypatch.setattr(inv_mod, "fit_inversion", fake_fit)
-    basis = inv_mod._basis(GRID)
-    monkeypatch.setattr(inv_mod, "surface_basis", lambda grid: basis)
-    monkeypatch.setattr(inv_mod, "context_moon", lambda c: np.zeros(len(row_lamp)))
+    ctx, seen = stop_at_fit(monkeypatch, case)
     i = lib.level2.index("hps")
     fine = np.asarray(GRID_1NM, float)
     own = (["my_hps.csv"], 5.0 * np.interp(fine, GRID, lib.spectra[i])[None], ["hps"])
@@ -132,9 +117,7 @@ def test_evaluate_puts_your_lamps_into_the_prior(monkeypatch, tmp_path, lib, cap
         mixtures=0, sigma="per-metric", interval_unit="narrowest",
         peak_shifts="off", planck="on", tm30="off", own_lamps=own,
     )  # fmt: skip
-    ctx = _fake_context(case)
-    ctx.table.n_lamps = len(lamps.ids)
-    with pytest.raises(StopError):
+    with pytest.raises(StopAtFitError):
         _cmd_evaluate._fit(args, ctx, FIVE, "unknown")
     always = seen["always"]
     assert always.ids == (*inv_mod.planck_lamps(GRID).ids, "own:my_hps.csv")

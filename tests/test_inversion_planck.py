@@ -13,7 +13,7 @@ import pytest
 from bandopt import inversion as inv_mod
 from tests._bands import FIVE, GRID
 from tests.test_inversion_mixtures import spy_priors
-from tests.test_inversion_models import _case, _fake_context, _pixels
+from tests.test_inversion_models import _case, _fake_context, _pixels, patch_case
 
 
 def test_planck_lamps_are_one_lumen_radiators_at_their_temperature():
@@ -82,10 +82,8 @@ def test_a_held_out_halogen_is_named_incandescent_only_with_planck(
 
 def test_cross_validate_planck_rows_say_so_and_score_measured_lamps(monkeypatch):
     case = _case()
-    lamps, row_lamp, *_ = case
-    setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
-    monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
-    monkeypatch.setattr(inv_mod, "context_moon", lambda c: np.zeros(len(row_lamp)))
+    lamps = case[0]
+    patch_case(monkeypatch, case)
     ctx = _fake_context(case)
     both = (inv_mod.PLANCK_ESTIMATOR, inv_mod.DEFAULT_ESTIMATOR)
     recs = inv_mod.cross_validate(ctx, FIVE, estimators=both, folds=[0])

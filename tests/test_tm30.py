@@ -21,7 +21,13 @@ from bandopt.datasets import _lamp_sources as src
 from bandopt.datasets.lamps import library
 from tests._bands import FIVE, GRID
 from tests.test_inversion_mixtures import spy_priors
-from tests.test_inversion_models import _case, _fake_context
+from tests.test_inversion_models import (
+    StopAtFitError,
+    _case,
+    _fake_context,
+    patch_case,
+    stop_at_fit,
+)
 
 
 DATA = Path(src.__file__).parent / "data" / "lamps_ies_tm30"
@@ -121,9 +127,8 @@ def test_an_unseen_class_drops_its_own_tm30_lamps(tm30):
 
 def test_leave_one_class_out_never_trains_on_the_held_out_class(monkeypatch, tm30):
     case = _case()
-    lamps, row_lamp, *_ = case
-    setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
-    monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
+    lamps = case[0]
+    patch_case(monkeypatch, case, moon=False)
     ctx = _fake_context(case)
     built = spy_priors(monkeypatch)
     recs = inv_mod.leave_one_class_out(ctx, FIVE, tm30=True)
@@ -144,10 +149,8 @@ def test_leave_one_class_out_never_trains_on_the_held_out_class(monkeypatch, tm3
 
 def test_cross_validate_tm30_rows_say_so_and_score_library_lamps(monkeypatch, tm30):
     case = _case()
-    lamps, row_lamp, *_ = case
-    setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
-    monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
-    monkeypatch.setattr(inv_mod, "context_moon", lambda c: np.zeros(len(row_lamp)))
+    lamps = case[0]
+    patch_case(monkeypatch, case)
     built = spy_priors(monkeypatch)
     recs = inv_mod.cross_validate(
         _fake_context(case), FIVE, estimators=(inv_mod.TM30_ESTIMATOR,), folds=[0]
@@ -161,32 +164,14 @@ def test_cross_validate_tm30_rows_say_so_and_score_library_lamps(monkeypatch, tm
 
 
 def test_evaluate_tm30_option(monkeypatch, capsys, tmp_path):
-    case = _case()
-    lamps, row_lamp, *_ = case
-    seen = {}
-
-    class StopError(Exception):
-        pass
-
-    def fake_fit(*a, **kw):
-        seen.update(kw)
-        raise StopError
-
-    setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
-    monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
-    monkeypatch.setattr(inv_mod, "fit_inversion", fake_fit)
-    basis = inv_mod._basis(GRID)
-    monkeypatch.setattr(inv_mod, "surface_basis", lambda grid: basis)
-    monkeypatch.setattr(inv_mod, "context_moon", lambda c: np.zeros(len(row_lamp)))
-    ctx = _fake_context(case)
-    ctx.table.n_lamps = len(lamps.ids)
+    ctx, seen = stop_at_fit(monkeypatch, _case())
     for on, n in (("on", len(inv_mod.tm30_lamps(GRID).ids)), ("off", 0)):
         args = types.SimpleNamespace(
             estimator="inversion", modelled_per_class=0, intervals="any-type",
             mixtures=0, sigma="per-metric", interval_unit="narrowest",
             peak_shifts="off", planck="on", tm30=on, own_lamps=None,
         )  # fmt: skip
-        with pytest.raises(StopError):
+        with pytest.raises(StopAtFitError):
             _cmd_evaluate._fit(args, ctx, FIVE, "unknown")
         ids = seen["always"].ids
         assert sum(i.startswith("ies_tm30_") for i in ids) == n
