@@ -26,14 +26,18 @@ the `estimate-tm30` section of `results/README.md` (default output only), as
 
 from collections import Counter
 
-from experiments.estimate_defaults import DEFAULT
+from experiments.estimate_defaults import DEFAULT, STUDY as DEFAULTS
 from experiments.estimate_mix import UNKNOWN_ONLY, Study, main as _run
-from experiments.estimate_shift import COLUMNS, GRID, SHIFTS, by_class, variant_text
+from experiments.estimate_shift import COLUMNS, by_class, variant_text
 
 
 TM30 = "inversion-moon-mix-metric-narrow-shift-planck-tm30"
 """`DEFAULT` with the measured IES TM-30-15 lamps the library lacks in every
 prior (`bandopt.inversion.TM30_ESTIMATOR`)."""
+
+
+(_DEFAULT_UNSEEN,) = DEFAULTS.unseen
+"""`make estimate-defaults`' unseen-types run of evaluate's estimator."""
 
 
 def tm30_counts() -> dict:
@@ -94,22 +98,8 @@ STUDY = Study(
     estimators=(DEFAULT, TM30),
     pairs=((TM30, DEFAULT),),
     unseen=(
-        (
-            f"{DEFAULT}-loco",
-            None,
-            "classes",
-            "per-metric",
-            GRID,
-            {"peak_shifts": SHIFTS, "planck": True},
-        ),
-        (
-            f"{TM30}-loco",
-            None,
-            "classes",
-            "per-metric",
-            GRID,
-            {"peak_shifts": SHIFTS, "planck": True, "tm30": True},
-        ),
+        _DEFAULT_UNSEEN,
+        (f"{TM30}-loco", *_DEFAULT_UNSEEN[1:-1], {**_DEFAULT_UNSEEN[-1], "tm30": True}),
     ),
     title="Held-out measured lamps, surface unknown, Moon told: evaluate's "
     "estimator without vs with the measured IES TM-30-15 lamps in the prior",
