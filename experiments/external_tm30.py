@@ -121,6 +121,29 @@ def _class_mean(rows, key, classes) -> float | None:
     return float(np.mean(per)) if per else None
 
 
+def _balanced(rows, keys, classes, draws: int, seed: int) -> dict:
+    """Each key's class-balanced mean over `rows` and its 90 % bootstrap
+    interval (`key_ci90`; lamps resampled within class, seeded; None when no
+    draw has a value)."""
+    by = {c: [r for r in rows if r["level2"] == c] for c in classes}
+    rng = np.random.default_rng(seed)
+    boot = {k: [] for k in keys}
+    for _ in range(draws):
+        sample = [
+            by[c][i] for c in classes for i in rng.integers(0, len(by[c]), len(by[c]))
+        ]
+        for k in keys:
+            boot[k].append(_class_mean(sample, k, classes))
+    out = {}
+    for k in keys:
+        v = [x for x in boot[k] if x is not None]
+        out[k] = _class_mean(rows, k, classes)
+        out[f"{k}_ci90"] = (
+            [float(np.quantile(v, 0.05)), float(np.quantile(v, 0.95))] if v else None
+        )
+    return out
+
+
 def summarise(rows: list[dict], *, draws: int = BOOTSTRAP, seed: int = SEED) -> dict:
     """Class-balanced means over the scored classes (`UNSCORED` apart), each
     with a 90 % bootstrap interval over lamps resampled within class; per
@@ -133,22 +156,9 @@ def summarise(rows: list[dict], *, draws: int = BOOTSTRAP, seed: int = SEED) -> 
         "level1_correct",
         "unexplained",
     )
-    rng = np.random.default_rng(seed)
     by = {c: [r for r in scored if r["level2"] == c] for c in classes}
-    boot = {k: [] for k in keys}
-    for _ in range(draws):
-        sample = [
-            by[c][i] for c in classes for i in rng.integers(0, len(by[c]), len(by[c]))
-        ]
-        for k in keys:
-            boot[k].append(_class_mean(sample, k, classes))
     out = {"lamps": len(scored), "classes": classes}
-    for k in keys:
-        v = [x for x in boot[k] if x is not None]
-        out[k] = _class_mean(scored, k, classes)
-        out[f"{k}_ci90"] = (
-            [float(np.quantile(v, 0.05)), float(np.quantile(v, 0.95))] if v else None
-        )
+    out.update(_balanced(scored, keys, classes, draws, seed))
     out["by_class"] = {
         c: {"lamps": len(by[c]), **{k: _class_mean(by[c], k, [c]) for k in keys}}
         for c in classes
@@ -179,22 +189,8 @@ def paired(rows_a: list[dict], rows_b: list[dict], *, draws=BOOTSTRAP, seed=SEED
             d[m] = None if x is None or y is None else x - y
         diff.append(d)
     classes = sorted({d["level2"] for d in diff})
-    by = {c: [d for d in diff if d["level2"] == c] for c in classes}
-    rng = np.random.default_rng(seed)
     out = {"lamps": len(lamps)}
-    boots = {m: [] for m in METRICS}
-    for _ in range(draws):
-        sample = [
-            by[c][i] for c in classes for i in rng.integers(0, len(by[c]), len(by[c]))
-        ]
-        for m in METRICS:
-            boots[m].append(_class_mean(sample, m, classes))
-    for m in METRICS:
-        out[m] = _class_mean(diff, m, classes)
-        out[f"{m}_ci90"] = [
-            float(np.quantile(boots[m], 0.05)),
-            float(np.quantile(boots[m], 0.95)),
-        ]
+    out.update(_balanced(diff, METRICS, classes, draws, seed))
     return out
 
 
