@@ -184,3 +184,32 @@ def test_evaluate_tm30_option(monkeypatch, capsys, tmp_path):
     assert f"--tm30 {other}: the TM-30 lamps go into the prior of" in (
         capsys.readouterr().err
     )
+
+
+@pytest.mark.parametrize(
+    "info, spd, match",
+    [
+        ("nr,name,type,category,\n1, A,LED Phosphor,Commercial,\n",
+         "380,1\n", r"must rise over 380-780 nm"),
+        ("nr,name,type,category,\n1, A,LED Phosphor,Commercial,\n2, B,LED Phosphor,"
+         "Commercial,\n", None, r"1 spectra for the 2 sources"),
+        ("nr,name,type,category,\n1, A,Laser,Commercial,\n", None,
+         r"Sinfo\.txt: row 2: unknown type 'Laser'"),
+        ("nr,name,type,category,\n1, A,LED Phosphor\n", None,
+         r"Sinfo\.txt: row 2 has 3 fields, not 4"),
+        ("nr,name,type,category,\n1, A,LED Phosphor,Commercial,\n", "neg",
+         r"Sspds\.dat: source 1 \(A\) has negative or no power"),
+    ],
+)  # fmt: skip
+def test_bad_tm30_files_are_refused_naming_file_and_row(
+    tmp_path, monkeypatch, info, spd, match
+):
+    w = np.arange(380.0, 781.0)
+    v = np.where(spd == "neg", -1.0, 1.0) * np.ones_like(w)
+    if spd is None or spd == "neg":
+        spd = "".join(f"{x:g},{y:g}\n" for x, y in zip(w, v, strict=True))
+    (tmp_path / "IESTM30_15_Sinfo.txt").write_text(info)
+    (tmp_path / "IESTM30_15_Sspds.dat").write_text(spd)
+    monkeypatch.setattr(src, "_IES_TM30", tmp_path)
+    with pytest.raises(ValueError, match=match):
+        src._tm30_sources()

@@ -475,13 +475,13 @@ def _tm30_sources() -> list[_Raw]:
     (`_TM30_TYPE`, `_TM30_HID`), ids `ies_tm30_<nr>_<name>`."""
     spd_path = _IES_TM30 / "IESTM30_15_Sspds.dat"
     info_path = _IES_TM30 / "IESTM30_15_Sinfo.txt"
-    data = np.loadtxt(spd_path, delimiter=",")
+    data = np.atleast_2d(np.loadtxt(spd_path, delimiter=","))
     with info_path.open(newline="") as fh:
         rows = [r for r in csv.reader(fh)][1:]
-    if data.ndim != 2 or data.shape[1] != len(rows) + 1:
+    if data.shape[1] != len(rows) + 1:
         raise ValueError(
-            f"{spd_path}: {data.shape[1] - 1 if data.ndim == 2 else '?'} spectra "
-            f"for the {len(rows)} sources of {info_path.name}."
+            f"{spd_path}: {data.shape[1] - 1} spectra for the {len(rows)} sources "
+            f"of {info_path.name}."
         )
     w = data[:, 0]
     if np.any(np.diff(w) <= 0) or w[0] > 380.0 or w[-1] < 780.0:
