@@ -44,6 +44,7 @@ def tm30_counts() -> dict:
     """The TM-30 lamps the prior gains: per level-2 class, in total, and how
     many of the set's measured entries the library's deduplication removed
     (copies of library lamps)."""
+    # lazy: JAX is configured by the study's main before the library is built
     from bandopt.datasets.lamps import library
     from bandopt.inversion import tm30_lamps
     from bandopt.spectra import GRID_1NM

@@ -285,6 +285,7 @@ def readme_text(summary: dict) -> str:
 
 def figure(summary: dict, path: Path) -> None:
     """LER / G / CCT error per class, one bar per band set."""
+    # lazy: matplotlib only when a figure is drawn (start-up time)
     import matplotlib
 
     matplotlib.use("Agg")
