@@ -52,7 +52,7 @@ from experiments.estimate_mix import (
     log as _log,
     partition_args,
 )
-from experiments.estimate_shift import by_class, reference_lines
+from experiments.estimate_shift import by_class, class_change_cells, reference_lines
 
 
 OUT = "results/estimate_library"
@@ -412,15 +412,7 @@ def readme_text(summary: dict) -> str:
                 )
     classes = summary.get("by_class") or {}
     if classes.get(HELD) and classes.get(OWN):
-        cells = []
-        for c in classes[HELD]:
-            a, b = classes[HELD][c], classes[OWN].get(c, {})
-            if a.get("LER") is None or b.get("LER") is None:
-                continue
-            cells.append(
-                f"{c} ({a['lamps']}) {a['LER']:.1f} → {b['LER']:.1f} lm/W, "
-                f"CCT {a['CCT']:.0f} → {b['CCT']:.0f} K"
-            )
+        cells = class_change_cells(classes[HELD], classes[OWN])
         lines += [
             "",
             "Per class (recommended bands, mean over lamps and partitions; "

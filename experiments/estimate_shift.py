@@ -86,6 +86,22 @@ def readme_text(summary: dict) -> str:
     )
 
 
+def class_change_cells(before: dict, after: dict) -> list[str]:
+    """Per level-2 class of `before` ({class: by_class row}) that both hold an
+    LER for: "class (lamps) LER → LER lm/W, CCT CCT → CCT K", the README's
+    per-class sentence of a change."""
+    cells = []
+    for c, a in before.items():
+        b = after.get(c, {})
+        if a.get("LER") is None or b.get("LER") is None:
+            continue
+        cells.append(
+            f"{c} ({a['lamps']}) {a['LER']:.1f} → {b['LER']:.1f} lm/W, "
+            f"CCT {a['CCT']:.0f} → {b['CCT']:.0f} K"
+        )
+    return cells
+
+
 def reference_lines(paired, title: str, column: str, label=None) -> list[str]:
     """README lines: `title` and a table of reference sensors minus the
     recommended bands (`paired` rows of `paired_differences`), LER, G and
@@ -157,15 +173,7 @@ def variant_text(
     )
     classes = (summary.get("extra") or {}).get("by_class") or {}
     if classes.get(base) and classes.get(variant):
-        cells = []
-        for c in classes[base]:
-            a, b = classes[base][c], classes[variant].get(c, {})
-            if a.get("LER") is None or b.get("LER") is None:
-                continue
-            cells.append(
-                f"{c} ({a['lamps']}) {a['LER']:.1f} → {b['LER']:.1f} lm/W, "
-                f"CCT {a['CCT']:.0f} → {b['CCT']:.0f} K"
-            )
+        cells = class_change_cells(classes[base], classes[variant])
         lines += [
             "",
             "Per held-out class (recommended bands, mean over lamps and "
