@@ -2423,6 +2423,9 @@ def cross_validate(
     out = []
     folds = range(len(ctx.splits)) if folds is None else folds
     augmented: dict = {}  # per outer fold, shared by ridge+models and kernel+models
+    # what records list of their priors: once, not per record
+    planck_ids = planck_lamps(grid).ids
+    n_tm30 = len(tm30_lamps(grid).ids) if TM30_ESTIMATOR in estimators else 0
     for k in folds:
         s = ctx.splits[k]
         if train_fraction < 1.0:
@@ -2610,9 +2613,9 @@ def cross_validate(
                     if inv.metric_sigma:
                         rec["metric_noise"] = [list(x) for x in inv.metric_noise]
                     if name in (PLANCK_ESTIMATOR, DEFAULT_ESTIMATOR, TM30_ESTIMATOR):
-                        rec["modelled_in_prior"] = list(planck_lamps(grid).ids)
+                        rec["modelled_in_prior"] = list(planck_ids)
                     if name == TM30_ESTIMATOR:
-                        rec["tm30_in_prior"] = len(tm30_lamps(grid).ids)
+                        rec["tm30_in_prior"] = n_tm30
                 if modelled_per_class > 0:
                     rec.update(model_info.get(name) or _modelled_fields(inv))
                 out.append(rec)
