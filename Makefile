@@ -10,7 +10,7 @@ SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: run test test-slow lint bench atmospheres surfaces library lamp-models ler \
         g cct sweep compare classify classify-partitions radiometry spatial \
-        noise-aware estimate estimate-moon estimate-mix estimate-noise estimate-intervals estimate-shift estimate-planck estimate-defaults estimate-library estimate-tm30 external-tm30 unseen-ceiling \
+        noise-aware estimate estimate-moon estimate-mix estimate-noise estimate-intervals estimate-shift estimate-planck estimate-defaults estimate-library estimate-tm30 estimate-bands external-tm30 unseen-ceiling \
         before-after report check-report docs tutorial clean
 
 $(STAMP): pyproject.toml requirements.lock
@@ -98,6 +98,9 @@ estimate-library: $(STAMP)  ## what a lamp the library lacks costs: bandopt eval
 
 estimate-tm30: $(STAMP)  ## more measured lamps in the prior: bandopt evaluate's estimator without vs with the 210 measured IES TM-30-15 lamps the library lacks (train only), our bands and the two best reference sensors, 4 lamp partitions, paired; unseen types (resumable: ARGS=--resume)
 	$(BIN)/python -m experiments.estimate_tm30 $(ARGS)
+
+estimate-bands: $(STAMP)  ## how many bands the goal needs: bandopt evaluate's estimator with our pan + 5 bands and with 13, 26 and 52 contiguous bands over 380-900 nm, 4 lamp partitions, paired (resumable: ARGS=--resume)
+	$(BIN)/python -m experiments.estimate_bands $(ARGS)
 
 external-tm30: $(STAMP)  ## external check: bandopt evaluate, as a user runs it, on the 210 measured IES TM-30-15 lamps the library has never seen, our bands and the two best reference sensors (about 2 min)
 	$(BIN)/python -m experiments.external_tm30 $(ARGS)

@@ -52,6 +52,8 @@ import numpy as np
 
 
 DEFAULT_BAND_SETS = ("recommended", "sdgsat-1", "nightsat", "viirs-dnb")
+CONTIGUOUS = "contiguous-"
+"""Prefix of a band-set name "contiguous-N" (`band_set`)."""
 MODELS = "inversion+models"
 """Estimator label of the inversion with modelled lamps in its prior."""
 EVIDENCE = "inversion-evidence"
@@ -92,6 +94,9 @@ def load_records(rec_path: Path, *, keep: bool, say=None) -> tuple[list, set]:
 
 
 def band_set(name: str):
+    """A study's band set by name: "recommended" (`make run`'s bands),
+    "contiguous-N" (N equal-width bands tiling the scenes' 380-900 nm,
+    `BandSet.contiguous`) or a reference sensor."""
     from bandopt.sensor import BandSet
     from bandopt.sensor.reference import resolve
 
@@ -99,6 +104,11 @@ def band_set(name: str):
         if not RECOMMENDED.is_file():
             raise SystemExit(f"{RECOMMENDED}: missing; run `make run` first.")
         return BandSet.from_json(RECOMMENDED)
+    if name.startswith(CONTIGUOUS):
+        count = name[len(CONTIGUOUS) :]
+        if not count.isdigit():
+            raise ValueError(f"band set {name!r}: expected {CONTIGUOUS}N, N an integer.")
+        return BandSet.contiguous(int(count))
     return resolve(name).build()
 
 

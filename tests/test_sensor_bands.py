@@ -171,3 +171,26 @@ def test_csv_export(tmp_path):
     table = np.asarray(rows[1:], float)
     np.testing.assert_allclose(table[:, 0], GRID_1NM)
     np.testing.assert_allclose(table[:, 1:].T, b.response(WL), rtol=1e-7, atol=1e-300)
+
+
+@pytest.mark.parametrize("n", [2, 13, 52])
+def test_contiguous_bands_tile_the_range_meeting_at_half_maximum(n):
+    b = BandSet.contiguous(n)
+    width = (900.0 - 380.0) / n
+    assert len(b) == n and b.name == f"contiguous-{n}" and b.names[-1] == f"C{n}"
+    np.testing.assert_allclose(b.fwhm_nm, width, rtol=1e-6)
+    edges = np.asarray(b.edges_nm)
+    np.testing.assert_allclose(edges[0, 0], 380.0, atol=1e-6)
+    np.testing.assert_allclose(edges[-1, 1], 900.0, atol=1e-6)
+    np.testing.assert_allclose(edges[1:, 0], edges[:-1, 1], atol=1e-6)  # no gaps
+    # each band is at half maximum where its neighbour is: the two meet there
+    r = np.asarray(b.response(jnp.asarray(edges[:-1, 1])))
+    idx = np.arange(n - 1)
+    np.testing.assert_allclose(r[idx, idx], 0.5, rtol=1e-5)
+    np.testing.assert_allclose(r[idx + 1, idx], 0.5, rtol=1e-5)
+
+
+@pytest.mark.parametrize("n", [1, 0, -3, True])
+def test_contiguous_bands_refuse_a_bad_count(n):
+    with pytest.raises(ValueError, match="integer n >= 2"):
+        BandSet.contiguous(n)

@@ -267,6 +267,38 @@ class BandSet(eqx.Module):
             edges.mean(axis=1), np.diff(edges, axis=1)[:, 0], shape_k, **kwargs
         )
 
+    @classmethod
+    def contiguous(
+        cls,
+        n: int,
+        lower_nm: float = DATA_RANGE_NM[0],
+        upper_nm: float = DATA_RANGE_NM[1],
+        shape_k: float = 6.0,
+        **kwargs,
+    ) -> "BandSet":
+        """`n` equal-width bands tiling `[lower_nm, upper_nm]`, each meeting
+        the next at their 50 % points (an idealised imaging spectrometer; names
+        `C1..Cn`, set name `contiguous-n`). Bands narrower than the default
+        `min_fwhm_nm` are allowed: asking for `n` is asking for their width.
+        Other keyword arguments as in `from_physical`."""
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
+            raise ValueError(f"n={n!r}: a contiguous band set needs an integer n >= 2.")
+        if not upper_nm > lower_nm:
+            raise ValueError(f"upper_nm={upper_nm:g} must exceed lower_nm={lower_nm:g}.")
+        width = (upper_nm - lower_nm) / n
+        kwargs.setdefault("min_fwhm_nm", min(MIN_FWHM_NM, width))
+        kwargs.setdefault("names", [f"C{i + 1}" for i in range(n)])
+        kwargs.setdefault("name", f"contiguous-{n}")
+        centres = lower_nm + width * (np.arange(n) + 0.5)
+        return cls.from_physical(
+            centres,
+            np.full(n, width),
+            shape_k,
+            lower_nm=lower_nm,
+            upper_nm=upper_nm,
+            **kwargs,
+        )
+
     # -- physical parameters -------------------------------------------------
     @property
     def fwhm_nm(self) -> Float[Array, " b"]:
