@@ -107,7 +107,9 @@ def band_set(name: str):
     if name.startswith(CONTIGUOUS):
         count = name[len(CONTIGUOUS) :]
         if not count.isdigit():
-            raise ValueError(f"band set {name!r}: expected {CONTIGUOUS}N, N an integer.")
+            raise ValueError(
+                f"band set {name!r}: expected {CONTIGUOUS}N, N an integer."
+            )
         return BandSet.contiguous(int(count))
     return resolve(name).build()
 

@@ -1,4 +1,4 @@
-"""How many bands the goal needs: evaluate's estimator on contiguous band sets (issue 12).
+"""How many bands the goal needs: evaluate's estimator on contiguous bands (issue 12).
 
 `bandopt evaluate`'s estimator (`inversion-moon-mix-metric-narrow-shift-planck`,
 surface unknown, the Moon told) misses issue 12's goal (5 lm/W, G 0.10,
@@ -102,7 +102,8 @@ def verdict(rows) -> str:
             "evaluate's estimator, and this is the smallest tried that suffices."
         )
     spans = {
-        m: (min(r[m] for r in rows), max(r[m] for r in rows)) for m in ("LER", "G", "CCT")
+        m: (min(r[m] for r in rows), max(r[m] for r in rows))
+        for m in ("LER", "G", "CCT")
     }
     return (
         "No band set meets the goal (5 lm/W, 0.10, 200 K), not even 52 bands of "

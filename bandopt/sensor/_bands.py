@@ -284,7 +284,9 @@ class BandSet(eqx.Module):
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
             raise ValueError(f"n={n!r}: a contiguous band set needs an integer n >= 2.")
         if not upper_nm > lower_nm:
-            raise ValueError(f"upper_nm={upper_nm:g} must exceed lower_nm={lower_nm:g}.")
+            raise ValueError(
+                f"upper_nm={upper_nm:g} must exceed lower_nm={lower_nm:g}."
+            )
         width = (upper_nm - lower_nm) / n
         kwargs.setdefault("min_fwhm_nm", min(MIN_FWHM_NM, width))
         kwargs.setdefault("names", [f"C{i + 1}" for i in range(n)])
