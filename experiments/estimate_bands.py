@@ -169,6 +169,37 @@ def verdict(rows) -> str:
     )
 
 
+def figure(summary: dict, path) -> None:
+    """Class-balanced MAE per band set (mean ± SD over partitions) with the
+    goal and the nearest-library-lamp error as lines."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [r for r in summary["rows"] if r["estimator"] == DEFAULT]
+    near = ((summary.get("extra") or {}).get("nearest_lamp") or {}).get("nearest")
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.2), sharey=True)
+    y = np.arange(len(rows))[::-1]
+    for ax, (m, unit) in zip(
+        axes, (("LER", "lm/W"), ("G", "1"), ("CCT", "K")), strict=True
+    ):
+        ax.barh(y, [r[m] for r in rows], xerr=[r.get(f"{m}_sd") or 0 for r in rows],
+                color="C8", capsize=2)  # fmt: skip
+        ax.axvline(GOAL[m], color="C2", ls="--", label="issue 12's goal")
+        if near:
+            ax.axvline(near[m], color="C3", ls=":", label="nearest library lamp")
+        ax.set_yticks(y, [r["band_set"] for r in rows], fontsize=8)
+        ax.set_xlabel(f"class-balanced MAE {m} [{unit}]")
+        ax.grid(axis="x", alpha=0.3)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8, frameon=False)
+    fig.suptitle(summary.get("title", ""), fontsize=10)
+    fig.subplots_adjust(left=0.1, right=0.98, top=0.86, bottom=0.3, wspace=0.08)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+
+
 def readme_text(summary: dict) -> str:
     defs = (summary.get("extra") or {}).get("bands") or {}
 
@@ -264,6 +295,7 @@ STUDY = Study(
     "estimator with pan + 5 bands and with 13, 26 and 52 contiguous bands",
     oracle=False,
     readme=readme_text,
+    figure=figure,
     description=__doc__.splitlines()[0],
     extra=lambda records: {
         "by_class": by_class(records),

@@ -142,3 +142,12 @@ def test_nearest_lamp_gap_names_each_lamp_by_its_nearest_other_lamp():
     three = gap["mean_of_3"]["LER_by_class"]
     assert three["b"] == pytest.approx(abs(ler_a - ler_b), rel=1e-9)
     assert three["a"] == pytest.approx(abs(ler_a - ler_b) / 2, rel=1e-9)
+
+
+def test_figure_is_written(tmp_path):
+    recs = _records("recommended", {"led_amber": 20.0, "hps": 7.0})
+    recs += _records("contiguous-52", {"led_amber": 16.0, "hps": 7.0})
+    summary = _summary(recs)
+    summary["extra"]["nearest_lamp"] = {"nearest": {"LER": 12.0, "G": 0.3, "CCT": 280}}
+    eb.figure(summary, tmp_path / "errors.png")
+    assert (tmp_path / "errors.png").stat().st_size > 10_000
