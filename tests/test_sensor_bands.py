@@ -194,3 +194,15 @@ def test_contiguous_bands_tile_the_range_meeting_at_half_maximum(n):
 def test_contiguous_bands_refuse_a_bad_count(n):
     with pytest.raises(ValueError, match="integer n >= 2"):
         BandSet.contiguous(n)
+
+
+def test_contiguous_bands_round_trip_through_a_band_set_file(tmp_path):
+    path = tmp_path / "c26.json"
+    BandSet.contiguous(26).to_json(path)
+    back = BandSet.from_json(path)
+    np.testing.assert_allclose(back.centre_nm, BandSet.contiguous(26).centre_nm)
+    np.testing.assert_allclose(back.fwhm_nm, 20.0, rtol=1e-6)
+    # 10 nm bands are below what a band-set file may hold: refused, said why
+    BandSet.contiguous(52).to_json(path)
+    with pytest.raises(ValueError, match="fwhm_nm=10 is below min_fwhm_nm=15"):
+        BandSet.from_json(path)
