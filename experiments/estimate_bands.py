@@ -273,8 +273,10 @@ def direct_lines(direct: dict, label) -> list[str]:
         "lamp light's transmittance (mean over the atmospheres) times the "
         "surface's reflectance, read as a spectrum constant over each band; "
         "LER, G and CCT of that spectrum (physical by construction). No lamp "
-        "trains it, so every lamp is unseen; the same scenes, noise draws and "
-        "lamps. Surface: `unknown` (the prior's mean reflectance), `class` (its "
+        "trains it, so every lamp is unseen and the lamp partitions cannot "
+        "change it (SD 0, except through the Sentinel-2 draw, seeded per "
+        "partition); the same scenes, noise draws and lamps. Surface: "
+        "`unknown` (the prior's mean reflectance), `class` (its "
         "class's mean reflectance, which in these scenes is the surface itself: "
         "the surface known), `measured` (the inversion's Sentinel-2 daytime "
         "retrieval, seeded per partition).",
