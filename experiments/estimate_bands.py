@@ -390,7 +390,8 @@ def figure(summary: dict, path) -> None:
         axes, (("LER", "lm/W"), ("G", "1"), ("CCT", "K")), strict=True
     ):
         ax.barh(y, [r[m] for r in rows], xerr=[r.get(f"{m}_sd") or 0 for r in rows],
-                color="C8", capsize=2)  # fmt: skip
+                color="C8", capsize=2,
+                label="evaluate's estimator, surface unknown")  # fmt: skip
         for mode, marker in zip(DIRECT_SURFACES, ("x", "o", "^"), strict=True):
             pts = [
                 (y[j], d[m])
@@ -409,7 +410,7 @@ def figure(summary: dict, path) -> None:
         ax.set_xlabel(f"class-balanced MAE {m} [{unit}]")
         ax.grid(axis="x", alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=5, fontsize=8, frameon=False)
+    fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=8, frameon=False)
     fig.suptitle(summary.get("title", ""), fontsize=10)
     fig.subplots_adjust(left=0.1, right=0.98, top=0.86, bottom=0.3, wspace=0.08)
     fig.savefig(path, dpi=120, bbox_inches="tight")
