@@ -15,7 +15,7 @@ partition. If the error does not fall with the band count, more bands do not
 buy the goal for this estimator: the library does. Two comparisons say why
 and what else would: what naming each library lamp by its spectrally
 nearest other library lamp costs (`nearest_lamp_gap`), and a library-free
-estimate from the contiguous bands (`direct_spectra`: the band values read
+estimate from the contiguous bands (`bandopt.direct`: the band values read
 as a spectrum once the Moon, surface and atmosphere are divided out; no
 lamp trains it) with the surface unknown, known, or measured by Sentinel-2.
 
@@ -130,37 +130,9 @@ reflectance is the surface itself, so this is the surface known exactly), or
 the Sentinel-2 daytime retrieval the inversion's "measured" mode uses."""
 
 
-def direct_spectra(radiance, weights, cond, reflectance, moon, edges) -> np.ndarray:
-    """A library-free lamp spectrum per pixel from contiguous bands.
-
-    Each band value is divided by the band average of `T_e ρ/π` (the lamp
-    light's transmittance averaged over the candidate atmospheres, `ρ` the
-    pixel's `reflectance`), after removing the Moon's term at the told
-    brightness `moon` (moonlit surface and path radiance, as the inversion
-    models them); negative values (noise) are clipped to 0; the spectrum is
-    piecewise constant over each band's `edges` (b, 2) [nm] (contiguous
-    bands). `radiance` (N, b), `weights` (b, w), `reflectance` (N, w) or
-    (w,), `moon` (N,). Returns (N, w) on `cond`'s grid."""
-    grid = cond.wavelength_nm
-    rho = np.broadcast_to(np.asarray(reflectance, float), (len(radiance), grid.size))
-    te = cond.lamp_transmittance.mean(axis=0)
-    a = rho @ (weights * te[None, :] / np.pi).T  # (N, b)
-    y = np.asarray(radiance, float)
-    if cond.moon is not None:
-        tm = cond.t_up.mean(axis=0) * cond.moon.mean(axis=0)
-        q = rho @ (weights * tm[None, :] / np.pi).T
-        if cond.path is not None:
-            q = q + weights @ cond.path.mean(axis=0)
-        y = y - np.asarray(moon, float)[:, None] * q
-    band = np.clip(y / a, 0.0, None)
-    lo = np.asarray(edges, float)[:, 0]
-    idx = np.clip(np.searchsorted(lo, grid, side="right") - 1, 0, len(lo) - 1)
-    return band[:, idx]
-
-
 def direct_records(ctx, bands, mode: str, partition: int) -> list[dict]:
-    """Records of the direct estimate (`direct_spectra`, metrics by
-    `bandopt.estimate.lamp_truth`) on every lamp of a `search.Context`, in the
+    """Records of the direct estimate (`bandopt.direct.direct_spectra` and
+    `direct_metrics`) on every lamp of a `search.Context`, in the
     form `bandopt.inversion.cross_validate` gives (a null CCT counts as 25000
     K; a metric whose truth is not meaningful is not scored). No lamp trains
     it, so every lamp is held out; the same noise draws as the inversion's
@@ -168,32 +140,20 @@ def direct_records(ctx, bands, mode: str, partition: int) -> list[dict]:
     `partition`, as `cross_validate` seeds it)."""
     # lazy: JAX is configured by the study's main before these are used
     from bandopt import inversion as inv_mod
-    from bandopt.datasets import surfaces as surf_mod
-    from bandopt.estimate import CCT_RANGE_K, MIRED, lamp_truth
+    from bandopt.direct import context_reflectance, direct_metrics, direct_spectra
+    from bandopt.estimate import CCT_RANGE_K, MIRED
 
-    lamps, _, cond, row_types = inv_mod.context_setup(ctx)
+    lamps, _, cond, _ = inv_mod.context_setup(ctx)
     grid = ctx.wavelength_nm
-    basis = inv_mod._basis(grid)
-    if mode == "unknown":
-        rho = basis.mean
-    elif mode == "class":
-        types = sorted(set(row_types))
-        _, refl = surf_mod.mean_reflectance(types, grid)
-        rho = refl[[types.index(t) for t in row_types]]
-    elif mode == "measured":
-        coords = inv_mod.measured_surfaces(row_types, basis, seed=partition)
-        rho = basis.reflectance(coords)
-    else:
-        raise ValueError(f"surface mode {mode!r}: expected one of {DIRECT_SURFACES}.")
     spectra = direct_spectra(
         ctx.radiance(bands),
         inv_mod.band_weights_on(bands, grid),
         cond,
-        rho,
+        context_reflectance(ctx, mode, seed=partition),
         inv_mod.context_moon(ctx),
         np.asarray(bands.edges_nm),
     )
-    est, _ = lamp_truth(spectra, grid)
+    est, _ = direct_metrics(spectra, grid)
     row_lamp = np.asarray(ctx.table.lamp_of)
     truth, valid = ctx.table.truth, ctx.table.valid
     out = []

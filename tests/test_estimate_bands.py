@@ -153,30 +153,6 @@ def test_figure_is_written(tmp_path):
     assert (tmp_path / "errors.png").stat().st_size > 10_000
 
 
-def test_direct_spectra_recover_a_lamp_through_surface_atmosphere_and_moon():
-    """A flat lamp spectrum seen through a sloped surface and atmosphere,
-    with moonlight and path radiance at a told brightness: dividing out the
-    surface and transmittance and removing the Moon's term gives it back."""
-    from bandopt.inversion import Conditions, band_weights_on
-    from bandopt.sensor import BandSet
-
-    grid = np.arange(380.0, 901.0)
-    bands = BandSet.contiguous(13)
-    w = band_weights_on(bands, grid)
-    t = 0.6 + 0.3 * (grid - 380.0) / 520.0
-    rho = np.stack([0.05 + 0.2 * (grid - 380.0) / 520.0, np.full(grid.size, 0.3)])
-    moon_e, path = np.full(grid.size, 2.0), np.full(grid.size, 0.01)
-    cond = Conditions(grid, t[None], moon_e[None], path[None], ("a",))
-    lamp, amp = 5.0, np.array([0.0, 0.7])
-    y = (rho * t * lamp / np.pi) @ w.T
-    y += amp[:, None] * ((rho * t * moon_e / np.pi) @ w.T + w @ path)
-    s = eb.direct_spectra(y, w, cond, rho, amp, np.asarray(bands.edges_nm))
-    np.testing.assert_allclose(s, lamp, rtol=1e-9)
-    # too much Moon removed (noise): clipped to no light, never negative
-    s = eb.direct_spectra(y, w, cond, rho, amp + 5.0, np.asarray(bands.edges_nm))
-    assert s.min() == 0.0 and np.all(np.isfinite(s))
-
-
 def test_direct_text_says_which_metrics_meet_the_goal():
     rows = [
         {"band_set": "contiguous-26", "surface": "class", "LER": 2.2, "G": 0.155,

@@ -51,12 +51,16 @@ def register(subparsers):
     )
     p.add_argument(
         "--estimator",
-        choices=("inversion", "ridge", "kernel"),
+        choices=("inversion", "ridge", "kernel", "direct"),
         default="inversion",
         help="inversion (default): physics-based inversion with a prior over the "
         "measured library lamps, 90 %% intervals and an 'unexplained' flag; ridge / "
         "kernel: regression baselines on centred log band ratios, bounded to the "
-        "training range, with split-conformal 90 %% intervals",
+        "training range, with split-conformal 90 %% intervals; direct: no lamp "
+        "library, the band values read as a spectrum once the surface is divided "
+        "out, for contiguous bands tiling 380-780 nm and a known --surface "
+        "(results/estimate_bands), with 90 %% intervals calibrated on the library "
+        "lamps",
     )
     p.add_argument(
         "--modelled-per-class",
@@ -329,6 +333,7 @@ def _fit(args, ctx, bands, mode):
     import numpy as np
 
     from .. import inversion as inv_mod
+    from ..direct import fit_direct
     from ..estimate import fit_estimator, fit_kernel_estimator
     from ..scene import band_weights
 
@@ -455,6 +460,25 @@ def _fit(args, ctx, bands, mode):
             + f", in units of {_unit_text(inv)}"
         )
         return inv, basis, desc
+    if args.estimator == "direct":
+        model = fit_direct(ctx, bands, mode)
+        half = model.halfwidth
+        desc = (
+            "library-free direct estimate (bandopt.direct): the band values read "
+            "as a spectrum constant over each band once the surface is divided "
+            + (
+                "out (surface unknown: divided by the library's mean reflectance; "
+                "expect large errors, results/estimate_bands)"
+                if mode == "unknown"
+                else f"out (surface {mode})"
+            )
+            + "; no lamp trains it; 90 % intervals: estimate +- the class-balanced "
+            f"90 % quantile of the absolute error of the {model.calibration['lamps']} "
+            "scored library lamps on the search scenes with the same surface "
+            f"knowledge (LER {half[0]:.3g} lm/W, G {half[1]:.3g}, CCT "
+            f"{half[2]:.3g} mired)"
+        )
+        return model, None, desc
     fit = fit_estimator if args.estimator == "ridge" else fit_kernel_estimator
     est = fit(rad, ctx.table, all_lamps, splits)
     q = _conformal_halfwidth(fit, rad, ctx)
@@ -699,6 +723,13 @@ def run(args) -> int:
         )
     bands, entry = _load(args.bands)
     name = entry.key if entry is not None else bands.name
+    if args.estimator == "direct":
+        from ..direct import tiling_edges
+
+        try:
+            tiling_edges(bands)  # before any lamp is read or anything trains
+        except ValueError as exc:
+            raise ValueError(f"--bands {args.bands}: {exc}") from None
     warnings = band_set_warnings(bands, args.bands, log=sys.stderr)
     lamps = [load_user_lamp(p) for p in args.lamps]  # errors before training
     prior_files = parse_prior_lamps(args.prior_lamps)
@@ -754,10 +785,18 @@ def run(args) -> int:
     else:
         from ..classify import predict_lamp_types
 
-        est_rows = _baseline_rows(*model, band_rad)
-        level1, level2 = predict_lamp_types(band_rad, bands)
-        for r, l1, l2 in zip(est_rows, level1, level2, strict=True):
-            r["predicted_level1"], r["predicted_level2"] = l1, l2
+        if args.estimator == "direct":
+            from ..inversion import Conditions, surface_basis
+
+            # the evaluation scene has no atmosphere and no Moon (SCENE); the
+            # surface divided out is what the estimator knows of it
+            known = surface_basis(grid).mean if mode == "unknown" else refl
+            est_rows = model.rows(band_rad, Conditions.clear(grid), known)
+        else:
+            est_rows = _baseline_rows(*model, band_rad)
+            level1, level2 = predict_lamp_types(band_rad, bands)
+            for r, l1, l2 in zip(est_rows, level1, level2, strict=True):
+                r["predicted_level1"], r["predicted_level2"] = l1, l2
     rows = []
     for path, t, r in zip(args.lamps, truths, est_rows, strict=True):
         rows.append(
@@ -771,6 +810,11 @@ def run(args) -> int:
                 "level1_probabilities": r["level1_probabilities"],
                 "predicted_level1": r["predicted_level1"],
                 "predicted_level2": r["predicted_level2"],
+                **(
+                    {"nearest_library_lamp": r["nearest_library_lamp"]}
+                    if "nearest_library_lamp" in r
+                    else {}
+                ),
             }
         )
     scene = {**SCENE, "surface": surface_label}
