@@ -15,7 +15,10 @@ the default of `bandopt evaluate`), each with the Moon fitted and told (as
 `σ_rel` (`metric_sigma`, `bandopt evaluate`'s default) against one `σ_rel`,
 and the whole prior of `bandopt evaluate` (also the library's Planck
 spectra and shifted copies of its direct-emission LEDs, `--planck on`,
-`--peak-shifts on`). Compilation is excluded (a warm-up call first).
+`--peak-shifts on`); and the library-free direct estimate (`bandopt
+evaluate --estimator direct`, 26 contiguous bands, surface known) against
+the ridge on the same bands and pixels. Compilation is excluded (a warm-up
+call first).
 """
 
 import argparse
@@ -129,6 +132,19 @@ def main(argv=None) -> int:
         inv_metric, prior=built.prior, design=built.design
     )
     t_default = _best(lambda: inv_default.predict(pix, moon=moon))
+    # the library-free direct estimate (`bandopt evaluate --estimator direct`)
+    # needs contiguous bands: 26 x 20 nm, surface known, against the ridge on
+    # the same bands and pixels (its JSON-ready rows, as evaluate makes them)
+    from bandopt.direct import context_reflectance, fit_direct
+
+    c26 = BandSet.contiguous(26)
+    rad26 = ctx.radiance(c26)
+    direct = fit_direct(ctx, c26, "class")
+    refl = context_reflectance(ctx, "class")[:n]
+    t_direct = _best(lambda: direct.rows(rad26[:n], inv.conditions, refl, moon))
+    ridge26 = fit_estimator(rad26, ctx.table, s.train, s.inner)
+    x26 = jnp.asarray(rad26[:n])
+    t_ridge26 = _best(lambda: np.asarray(ridge26.predict(x26)))
     out = {
         "bands": bands.name,
         "n_bands": len(bands.names),
@@ -161,6 +177,10 @@ def main(argv=None) -> int:
         "evaluate_configuration": "inversion_evaluate_default_s_per_pixel "
         "(blends, Planck spectra and shifted direct LEDs in the prior, the Moon "
         "told, each metric at its own sigma_rel)",
+        "direct_bands": c26.name,
+        "direct_s_per_pixel": t_direct / n,
+        "ridge_contiguous_s_per_pixel": t_ridge26 / n,
+        "ratio_direct_to_ridge_same_bands": t_direct / t_ridge26,
         "inversion_fit_s": t_fit,
         "load_average_1_5_15min": list(os.getloadavg()),
         "cpu_count": os.cpu_count(),
