@@ -33,6 +33,7 @@ import numpy as np
 from experiments.estimate import _fmt, diff_cells
 from experiments.estimate_defaults import DEFAULT
 from experiments.estimate_mix import Study, main as _run, row_line
+from experiments.estimate_shift import class_means
 
 
 COUNTS = (13, 26, 52)
@@ -57,15 +58,7 @@ def by_class(records) -> dict:
     out: dict = {}
     for b in dict.fromkeys(r["band_set"] for r in records):
         rs = [r for r in records if r["band_set"] == b and r["estimator"] == DEFAULT]
-        out[b] = {}
-        for c in sorted({r["level2"] for r in rs}):
-            cr = [r for r in rs if r["level2"] == c]
-            out[b][c] = {
-                k: float(np.mean(v)) if v else None
-                for k in CLASS_KEYS
-                for v in [[r[k] for r in cr if r.get(k) is not None]]
-            }
-            out[b][c]["lamps"] = len({r["lamp"] for r in cr})
+        out[b] = class_means(rs, CLASS_KEYS)
     return out
 
 
@@ -198,22 +191,13 @@ def direct_summary(partitions) -> dict:
             bands = band_set(name)
             for mode in DIRECT_SURFACES:
                 records += direct_records(ctx, bands, mode, p)
-    by_class: dict = {}
+    groups: dict = {}
     for r in records:
-        key = f"{r['band_set']}/{r['surface']}"
-        by_class.setdefault(key, {}).setdefault(r["level2"], []).append(r)
+        groups.setdefault(f"{r['band_set']}/{r['surface']}", []).append(r)
     return {
         "rows": inv_mod.summarise(records),
         "by_class": {
-            key: {
-                c: {
-                    m: float(np.mean(v)) if v else None
-                    for m in ("LER", "G", "CCT")
-                    for v in [[r[m] for r in rs if r.get(m) is not None]]
-                }
-                for c, rs in sorted(classes.items())
-            }
-            for key, classes in by_class.items()
+            key: class_means(rs, ("LER", "G", "CCT")) for key, rs in groups.items()
         },
     }
 

@@ -60,15 +60,22 @@ def by_class(records, estimators=(BASE, SHIFT)) -> dict:
             r for r in records
             if r["band_set"] == "recommended" and r["estimator"] == est
         ]  # fmt: skip
-        out[est] = {}
-        for c in sorted({r["level2"] for r in rs}):
-            cr = [r for r in rs if r["level2"] == c]
-            out[est][c] = {
-                k: float(np.mean(v)) if v else None
-                for k in CLASS_KEYS
-                for v in [[r[k] for r in cr if r.get(k) is not None]]
-            }
-            out[est][c]["lamps"] = len({r["lamp"] for r in cr})
+        out[est] = class_means(rs)
+    return out
+
+
+def class_means(records, keys=CLASS_KEYS) -> dict:
+    """Per level-2 class of `records`, the mean over its lamps' records of
+    each of `keys` (None where no record has it) and its number of lamps."""
+    out: dict = {}
+    for c in sorted({r["level2"] for r in records}):
+        cr = [r for r in records if r["level2"] == c]
+        out[c] = {
+            k: float(np.mean(v)) if v else None
+            for k in keys
+            for v in [[r[k] for r in cr if r.get(k) is not None]]
+        }
+        out[c]["lamps"] = len({r["lamp"] for r in cr})
     return out
 
 
