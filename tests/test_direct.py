@@ -188,3 +188,27 @@ def test_evaluate_direct_refuses_bands_that_do_not_tile(tmp_path, capsys):
     assert "--bands sdgsat-1" in err and "contiguous bands tiling 380-780 nm" in err
     assert main([*argv, "--mixtures", "3"]) == 2
     assert "--estimator inversion only" in capsys.readouterr().err
+
+
+def test_evaluate_direct_with_a_measured_reflectance_file(tmp_path, capsys):
+    """A reflectance file is the surface measured: the same surface as its
+    type gives the same estimate, and the description says so."""
+    from bandopt.datasets import surfaces
+
+    bands = tmp_path / "c26.json"
+    BandSet.contiguous(26).to_json(bands)
+    lamp = _lamp_file(tmp_path)
+    _, refl = surfaces.mean_reflectance(["asphalt"], GRID)
+    rfile = tmp_path / "asphalt.csv"
+    np.savetxt(rfile, np.c_[GRID, refl[0]], delimiter=",")
+    base = ["evaluate", "--bands", str(bands), "--lamps", str(lamp), "--json",
+            "--estimator", "direct", "--surface"]  # fmt: skip
+    assert main([*base, str(rfile)]) == 0
+    measured = json.loads(capsys.readouterr().out)
+    assert main([*base, "asphalt"]) == 0
+    known = json.loads(capsys.readouterr().out)
+    assert "surface measured" in measured["scene"]["estimator_description"]
+    for m in ("LER", "G", "CCT"):
+        assert measured["lamps"][0]["estimate"][m] == pytest.approx(
+            known["lamps"][0]["estimate"][m], rel=1e-6
+        )
