@@ -16,7 +16,7 @@ band average of the lamp spectrum `S`. Read as a spectrum constant over each
 band (the bands must tile 380-780 nm), it gives LER, G and CCT through
 `bandopt.photometry`: physical by construction (a non-negative spectrum;
 noise that leaves a band negative is clipped to no light). No lamp trains
-it, so no lamp is unseen to it.
+it: a lamp the library holds is as new to it as one it lacks.
 
 Measured on the scenes of `make estimate` (`results/estimate_bands/`): with
 26 bands of 20 nm, 2.2 lm/W and 65 K class-balanced with the surface known,
