@@ -20,7 +20,10 @@ not in the errors and coverage. Summaries are class-balanced over the library's 
 level-2 classes (RGB LED mixtures, a class the library does not score, are
 reported apart), with a 90 % bootstrap interval over lamps (resampled
 within class, `BOOTSTRAP` draws, seed `SEED`); reference sensors minus ours
-are paired on the same lamps.
+are paired on the same lamps. Then the same lamps told the scene's surface
+(`SURFACE_KNOWN`): evaluate's estimator with our bands against the
+library-free direct estimate (`--estimator direct`) with 26 contiguous
+bands, paired on the same lamps.
 
     python -m experiments.external_tm30 [--out DIR]
 
@@ -48,6 +51,14 @@ BAND_SETS = {
     "nightsat": "nightsat",
 }
 """Label -> `bandopt evaluate --bands` argument."""
+SURFACE_KNOWN = {
+    "recommended, inversion": ("results/search/recommended_bands.json", ()),
+    "contiguous-26, direct": ("contiguous-26", ("--estimator", "direct")),
+}
+"""Label -> (`--bands` argument, other options) of the runs told the scene's
+surface (`--surface asphalt`): evaluate's default estimator with our bands,
+and the library-free direct estimate (`bandopt.direct`) with 26 contiguous
+bands of 20 nm (written as a band-set file for the run)."""
 METRICS = ("LER", "G", "CCT")
 CCT_NULL_K = 25000.0
 """A null CCT estimate counts as this when scored (as in `make estimate`)."""
@@ -272,6 +283,7 @@ def readme_text(summary: dict) -> str:
             f"LER {_num(v['LER'], 1)} lm/W, level-1 {v['level1_correct']:.2f}, "
             f"unexplained {v['unexplained']:.2f}."
         )
+    lines += surface_known_lines(summary)
     ref = summary.get("in_library_reference")
     if ref:
         lines += [
@@ -281,6 +293,47 @@ def readme_text(summary: dict) -> str:
             f"Moon): {ref}.",
         ]
     return "\n".join(lines) + "\n"
+
+
+def surface_known_lines(summary: dict) -> list[str]:
+    """README lines of the runs told the scene's surface (`SURFACE_KNOWN`):
+    their table, and the direct estimate minus the inversion on the same
+    lamps."""
+    known = summary.get("surface_known")
+    if not known:
+        return []
+    lines = [
+        "",
+        "Told the scene's surface (`--surface asphalt`): evaluate's estimator with "
+        "our bands, and the library-free direct estimate (`--estimator direct`, "
+        "`bandopt.direct`: no lamp trains it) with 26 contiguous bands of 20 nm:",
+        "",
+        "| run | LER [lm/W] | G | CCT [K] | coverage LER/G/CCT | level-1 right "
+        "| unexplained | out of range |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, s in known.items():
+        cov = "/".join(
+            "n/a" if s.get(f"{m}_covered") is None else f"{s[f'{m}_covered']:.2f}"
+            for m in METRICS
+        )
+        lines.append(
+            f"| {name} | {_fmt_ci(s, 'LER', 1)} | {_fmt_ci(s, 'G', 3)} | "
+            f"{_fmt_ci(s, 'CCT', 0)} | {cov} | {s['level1_correct']:.2f} | "
+            f"{s['unexplained']:.2f} | {s['out_of_range']} |"
+        )
+    p = summary.get("surface_known_paired")
+    if p:
+        lines += [
+            "",
+            "Direct (26 bands) minus inversion (our bands), paired on the same "
+            f"lamps (negative: the direct estimate is better): LER "
+            f"{_fmt_ci(p, 'LER', 1)} lm/W, G {_fmt_ci(p, 'G', 3)}, CCT "
+            f"{_fmt_ci(p, 'CCT', 0)} K. The direct estimate has no `unexplained` "
+            "flag (no lamp model to reject a pixel); its type is the nearest "
+            "library lamp's in band shape.",
+        ]
+    return lines
 
 
 def figure(summary: dict, path: Path) -> None:
@@ -326,6 +379,7 @@ def main(argv=None) -> int:
     from bandopt.datasets.lamps import library
     from bandopt.provenance import write_manifest
     from bandopt.results import update_readme_section
+    from bandopt.sensor import BandSet
 
     out = Path(args.out or "results/external_tm30")
     out.mkdir(parents=True, exist_ok=True)
@@ -356,23 +410,7 @@ def main(argv=None) -> int:
         log(f"{len(files)} lamp files written ({time.time() - t0:.0f} s)")
         for name, bands in BAND_SETS.items():
             t1 = time.time()
-            cmd = [
-                sys.executable,
-                "-m",
-                "bandopt",
-                "evaluate",
-                "--bands",
-                bands,
-                "--lamps",
-                *files,
-                "--json",
-            ]
-            p = subprocess.run(cmd, capture_output=True, text=True)
-            if p.returncode != 0:
-                raise RuntimeError(
-                    f"bandopt evaluate --bands {bands} failed:\n{p.stderr}"
-                )
-            data = json.loads(p.stdout)
+            data = _evaluate(bands, files)
             rows_by[name] = lamp_rows(data, classes)
             results[name] = {
                 **summarise(rows_by[name]),
@@ -382,7 +420,22 @@ def main(argv=None) -> int:
             }
             scene = data["scene"]
             log(f"{name}: {time.time() - t1:.0f} s")
-    if any(r["tm30_lamps_in_prior"] for r in results.values()):
+        known, known_rows = {}, {}
+        for label, (bands, options) in SURFACE_KNOWN.items():
+            t1 = time.time()
+            if bands.startswith("contiguous-"):
+                path = Path(tmp) / f"{bands}.json"
+                BandSet.contiguous(int(bands.split("-")[1])).to_json(path)
+                bands = str(path)
+            data = _evaluate(bands, files, ["--surface", "asphalt", *options])
+            known_rows[label] = lamp_rows(data, classes)
+            known[label] = {
+                **summarise(known_rows[label]),
+                "estimator_description": data["scene"]["estimator_description"],
+                "tm30_lamps_in_prior": data.get("tm30_lamps_in_prior", 0),
+            }
+            log(f"{label}, surface known: {time.time() - t1:.0f} s")
+    if any(r["tm30_lamps_in_prior"] for r in [*results.values(), *known.values()]):
         raise RuntimeError(
             "the TM-30 lamps were in evaluate's prior: not an external test."
         )
@@ -407,6 +460,10 @@ def main(argv=None) -> int:
             if name != "recommended"
         },
         "in_library_reference": ref,
+        "surface_known": known,
+        "surface_known_paired": paired(
+            known_rows["contiguous-26, direct"], known_rows["recommended, inversion"]
+        ),
         "bootstrap": {"draws": BOOTSTRAP, "seed": SEED, "level": 0.9},
         "scored_lamps": "measured lamps only (IES TM-30-15, not in the library)",
         "modelled_lamps_used": True,
@@ -426,6 +483,7 @@ def main(argv=None) -> int:
         seed=SEED,
         config={
             "band_sets": BAND_SETS,
+            "surface_known": {k: [b, *o] for k, (b, o) in SURFACE_KNOWN.items()},
             "bootstrap": BOOTSTRAP,
             "cct_null_k": CCT_NULL_K,
             "unscored": list(UNSCORED),
@@ -435,6 +493,17 @@ def main(argv=None) -> int:
     )
     log(f"done: {out} ({time.time() - t0:.0f} s)")
     return 0
+
+
+def _evaluate(bands: str, files: list[str], options=()) -> dict:
+    """`bandopt evaluate --bands BANDS --lamps FILES... --json [OPTIONS]` in a
+    spawned process, as a user runs it; its JSON."""
+    cmd = [sys.executable, "-m", "bandopt", "evaluate", "--bands", bands,
+           "--lamps", *files, "--json", *options]  # fmt: skip
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    if p.returncode != 0:
+        raise RuntimeError(f"bandopt evaluate --bands {bands} failed:\n{p.stderr}")
+    return json.loads(p.stdout)
 
 
 def _in_library_reference(path: Path) -> str | None:

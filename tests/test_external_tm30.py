@@ -121,3 +121,27 @@ def test_committed_section_is_generated_from_the_committed_summary():
     for s in summary["band_sets"].values():
         assert s["out_of_range"] == 0 and s["tm30_lamps_in_prior"] == 0
     assert np.isfinite(summary["band_sets"]["recommended"]["LER"])
+
+
+def test_surface_known_runs_in_the_readme_text():
+    rows = ext.lamp_rows(_output(), CLASSES)
+    worse = ext.lamp_rows(_output(scale=2.0), CLASSES)
+    s = ext.summarise(rows, draws=100)
+    summary = {
+        "lamps": 4, "scene": "asphalt, atmosphere none, moonless, 5 lx, noise-free",
+        "band_sets": {"recommended": s}, "paired": {},
+        "surface_known": {"recommended, inversion": ext.summarise(worse, draws=100),
+                          "contiguous-26, direct": s},
+        "surface_known_paired": ext.paired(rows, worse, draws=100),
+    }  # fmt: skip
+    text = ext.readme_text(summary)
+    assert "Told the scene's surface (`--surface asphalt`)" in text
+    assert "| contiguous-26, direct | 15.0 [" in text
+    assert "| recommended, inversion | 30.0 [" in text
+    # led_warm's errors 10 and 20 against 20 and 40; hps unexplained in both
+    better = "paired on the same lamps (negative: the direct estimate is better): "
+    assert better + "LER -15.0 [" in text
+    assert list(ext.SURFACE_KNOWN) == [
+        "recommended, inversion", "contiguous-26, direct",
+    ]  # fmt: skip
+    assert ext.SURFACE_KNOWN["contiguous-26, direct"][1] == ("--estimator", "direct")
