@@ -102,7 +102,7 @@ estimate-tm30: $(STAMP)  ## more measured lamps in the prior: bandopt evaluate's
 estimate-bands: $(STAMP)  ## how many bands the goal needs: bandopt evaluate's estimator with our pan + 5 bands and with 13, 26 and 52 contiguous bands over 380-900 nm, 4 lamp partitions, paired (resumable: ARGS=--resume)
 	$(BIN)/python -m experiments.estimate_bands $(ARGS)
 
-external-tm30: $(STAMP)  ## external check: bandopt evaluate, as a user runs it, on the 210 measured IES TM-30-15 lamps the library has never seen, our bands and the two best reference sensors (about 2 min)
+external-tm30: $(STAMP)  ## external check: bandopt evaluate, as a user runs it, on the 210 measured IES TM-30-15 lamps the library has never seen, our bands and the two best reference sensors; and told the surface, the inversion against --estimator direct with 26 contiguous bands (about 3 min)
 	$(BIN)/python -m experiments.external_tm30 $(ARGS)
 
 unseen-ceiling: $(STAMP)  ## the level-1 family of unseen lamp types from bare lamp spectra (5-50 nm) and the recommended bands, classifiers trained on the other classes: the ceiling of issue 12's 90 % goal (under a minute)
