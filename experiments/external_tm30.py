@@ -221,6 +221,20 @@ def _fmt_ci(s: dict, k: str, digits: int) -> str:
     )
 
 
+def table_row(name: str, s: dict) -> str:
+    """A README table line of one run's summary: errors with their 90 %
+    bootstrap intervals, coverage, level-1, unexplained, out of range."""
+    cov = "/".join(
+        "n/a" if s.get(f"{m}_covered") is None else f"{s[f'{m}_covered']:.2f}"
+        for m in METRICS
+    )
+    return (
+        f"| {name} | {_fmt_ci(s, 'LER', 1)} | {_fmt_ci(s, 'G', 3)} | "
+        f"{_fmt_ci(s, 'CCT', 0)} | {cov} | {s['level1_correct']:.2f} | "
+        f"{s['unexplained']:.2f} | {s['out_of_range']} |"
+    )
+
+
 def readme_text(summary: dict) -> str:
     """The `external-tm30` section of `results/README.md` from `summary.json`."""
     sets = summary["band_sets"]
@@ -247,16 +261,7 @@ def readme_text(summary: dict) -> str:
         "| unexplained | out of range |",
         "|---|---|---|---|---|---|---|---|",
     ]
-    for name, s in sets.items():
-        cov = "/".join(
-            "n/a" if s.get(f"{m}_covered") is None else f"{s[f'{m}_covered']:.2f}"
-            for m in METRICS
-        )
-        lines.append(
-            f"| {name} | {_fmt_ci(s, 'LER', 1)} | {_fmt_ci(s, 'G', 3)} | "
-            f"{_fmt_ci(s, 'CCT', 0)} | {cov} | {s['level1_correct']:.2f} | "
-            f"{s['unexplained']:.2f} | {s['out_of_range']} |"
-        )
+    lines += [table_row(name, s) for name, s in sets.items()]
     lines += [
         "",
         "Reference sensors minus recommended bands, paired on the same lamps "
@@ -312,16 +317,7 @@ def surface_known_lines(summary: dict) -> list[str]:
         "| unexplained | out of range |",
         "|---|---|---|---|---|---|---|---|",
     ]
-    for name, s in known.items():
-        cov = "/".join(
-            "n/a" if s.get(f"{m}_covered") is None else f"{s[f'{m}_covered']:.2f}"
-            for m in METRICS
-        )
-        lines.append(
-            f"| {name} | {_fmt_ci(s, 'LER', 1)} | {_fmt_ci(s, 'G', 3)} | "
-            f"{_fmt_ci(s, 'CCT', 0)} | {cov} | {s['level1_correct']:.2f} | "
-            f"{s['unexplained']:.2f} | {s['out_of_range']} |"
-        )
+    lines += [table_row(name, s) for name, s in known.items()]
     p = summary.get("surface_known_paired")
     if p:
         lines += [
