@@ -601,6 +601,7 @@ def _conformal_halfwidth(fit, rad, ctx):
 
     from ..estimate import to_model_space
     from ..folds import class_balanced_weights
+    from ..inversion import _weighted_quantile
 
     errs, wts = [], []
     y, valid = ctx.table.scenario_truth()
@@ -618,9 +619,7 @@ def _conformal_halfwidth(fit, rad, ctx):
     q = np.empty(3)
     for m in range(3):
         ok = ~np.isnan(e[:, m])
-        order = np.argsort(e[ok, m])
-        c = np.cumsum(w[ok][order])
-        q[m] = e[ok, m][order][min(int(np.searchsorted(c, 0.9 * c[-1])), ok.sum() - 1)]
+        q[m] = _weighted_quantile(e[ok, m], w[ok][None], (0.9,))[0, 0]
     return q
 
 
