@@ -2587,21 +2587,7 @@ def cross_validate(
                 if train_fraction < 1.0:
                     rec["train_fraction"] = float(train_fraction)
                     rec["train_lamps"] = len(s.train)
-                for m, name_m in enumerate(METRICS):
-                    if not valid[lamp, m]:
-                        rec[name_m] = None
-                        continue
-                    v = e[:, m]
-                    if name_m == "CCT":
-                        # a null CCT (not meaningful) counts as the range's far end
-                        vv = np.where(np.isfinite(v), v, CCT_RANGE_K[1])
-                        rec["CCT"] = float(np.mean(np.abs(vv - t[m])))
-                        rec["CCT_mired"] = float(
-                            np.mean(np.abs(MIRED / vv - MIRED / t[m]))
-                        )
-                        rec["CCT_null_rate"] = float(np.mean(~np.isfinite(v)))
-                    else:
-                        rec[name_m] = float(np.mean(np.abs(v - t[m])))
+                rec.update(record_errors(e, t, valid[lamp]))
                 if res is not None:
                     rec.update(_interval_fields(res.interval90[sel], t, valid[lamp]))
                     l1 = np.array(res.level1, dtype=object)[sel]
@@ -2620,6 +2606,29 @@ def cross_validate(
                     rec.update(model_info.get(name) or _modelled_fields(inv))
                 out.append(rec)
     return out
+
+
+def record_errors(est, truth, valid) -> dict:
+    """A record's error fields for one lamp: its pixels' estimates `est`
+    (n, 3) in `METRICS` order against its `truth` (3,); the mean |error| per
+    metric (None where `valid` says the truth has no meaning), CCT also in
+    mired, a null CCT estimate counting as the range's far end
+    (`CCT_RANGE_K`), and the rate of null CCTs."""
+    rec: dict = {}
+    for m, name in enumerate(METRICS):
+        if not valid[m]:
+            rec[name] = None
+            continue
+        v = est[:, m]
+        if name == "CCT":
+            # a null CCT (not meaningful) counts as the range's far end
+            vv = np.where(np.isfinite(v), v, CCT_RANGE_K[1])
+            rec["CCT"] = float(np.mean(np.abs(vv - truth[m])))
+            rec["CCT_mired"] = float(np.mean(np.abs(MIRED / vv - MIRED / truth[m])))
+            rec["CCT_null_rate"] = float(np.mean(~np.isfinite(v)))
+        else:
+            rec[name] = float(np.mean(np.abs(v - truth[m])))
+    return rec
 
 
 def _interval_fields(iv, truth, valid) -> dict:

@@ -126,15 +126,15 @@ the Sentinel-2 daytime retrieval the inversion's "measured" mode uses."""
 def direct_records(ctx, bands, mode: str, partition: int) -> list[dict]:
     """Records of the direct estimate (`bandopt.direct.direct_spectra` and
     `direct_metrics`) on every lamp of a `search.Context`, in the
-    form `bandopt.inversion.cross_validate` gives (a null CCT counts as 25000
-    K; a metric whose truth is not meaningful is not scored). No lamp trains
+    form `bandopt.inversion.cross_validate` gives (`record_errors`: a null
+    CCT counts as 25000 K; a metric whose truth is not meaningful is not
+    scored). No lamp trains
     it, so every lamp is held out; the same noise draws as the inversion's
     rows; surface `mode` of `DIRECT_SURFACES` (the Sentinel-2 draw seeded by
     `partition`, as `cross_validate` seeds it)."""
     # lazy: JAX is configured by the study's main before these are used
     from bandopt import inversion as inv_mod
     from bandopt.direct import context_reflectance, direct_metrics, direct_spectra
-    from bandopt.estimate import CCT_RANGE_K, MIRED
 
     lamps, _, cond, _ = inv_mod.context_setup(ctx)
     grid = ctx.wavelength_nm
@@ -158,17 +158,7 @@ def direct_records(ctx, bands, mode: str, partition: int) -> list[dict]:
             "level1": lamps.level1[i], "level2": lamps.level2[i],
             "rows": len(e), "out_of_range": int(inv_mod._out_of_range(e)),
         }  # fmt: skip
-        for m, name in enumerate(("LER", "G", "CCT")):
-            if not valid[i, m]:
-                rec[name] = None
-            elif name == "CCT":
-                v = np.where(np.isfinite(e[:, m]), e[:, m], CCT_RANGE_K[1])
-                rec["CCT"] = float(np.mean(np.abs(v - truth[i, m])))
-                rec["CCT_mired"] = float(
-                    np.mean(np.abs(MIRED / v - MIRED / truth[i, m]))
-                )
-            else:
-                rec[name] = float(np.mean(np.abs(e[:, m] - truth[i, m])))
+        rec.update(inv_mod.record_errors(e, truth[i], valid[i]))
         out.append(rec)
     return out
 

@@ -337,6 +337,25 @@ def _fit(args, ctx, bands, mode):
     from ..estimate import fit_estimator, fit_kernel_estimator
     from ..scene import band_weights
 
+    if args.estimator == "direct":
+        model = fit_direct(ctx, bands, mode)
+        half = model.halfwidth
+        desc = (
+            "library-free direct estimate (bandopt.direct): the band values read "
+            "as a spectrum constant over each band once the surface is divided "
+            + (
+                "out (surface unknown: divided by the library's mean reflectance; "
+                "expect large errors, results/estimate_bands)"
+                if mode == "unknown"
+                else f"out (surface {mode})"
+            )
+            + "; no lamp trains it; 90 % intervals: estimate +- the class-balanced "
+            f"90 % quantile of the absolute error of the {model.calibration['lamps']} "
+            "scored library lamps on the search scenes with the same surface "
+            f"knowledge (LER {half[0]:.3g} lm/W, G {half[1]:.3g}, CCT "
+            f"{half[2]:.3g} mired)"
+        )
+        return model, None, desc  # computes its own radiances
     all_lamps = np.arange(ctx.table.n_lamps)
     splits = [(s.train, s.test) for s in ctx.splits]
     rad = ctx.radiance(bands)
@@ -460,25 +479,6 @@ def _fit(args, ctx, bands, mode):
             + f", in units of {_unit_text(inv)}"
         )
         return inv, basis, desc
-    if args.estimator == "direct":
-        model = fit_direct(ctx, bands, mode)
-        half = model.halfwidth
-        desc = (
-            "library-free direct estimate (bandopt.direct): the band values read "
-            "as a spectrum constant over each band once the surface is divided "
-            + (
-                "out (surface unknown: divided by the library's mean reflectance; "
-                "expect large errors, results/estimate_bands)"
-                if mode == "unknown"
-                else f"out (surface {mode})"
-            )
-            + "; no lamp trains it; 90 % intervals: estimate +- the class-balanced "
-            f"90 % quantile of the absolute error of the {model.calibration['lamps']} "
-            "scored library lamps on the search scenes with the same surface "
-            f"knowledge (LER {half[0]:.3g} lm/W, G {half[1]:.3g}, CCT "
-            f"{half[2]:.3g} mired)"
-        )
-        return model, None, desc
     fit = fit_estimator if args.estimator == "ridge" else fit_kernel_estimator
     est = fit(rad, ctx.table, all_lamps, splits)
     q = _conformal_halfwidth(fit, rad, ctx)
