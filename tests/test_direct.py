@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from bandopt import direct
 from bandopt.cli import main
@@ -212,3 +213,27 @@ def test_evaluate_direct_with_a_measured_reflectance_file(tmp_path, capsys):
         assert measured["lamps"][0]["estimate"][m] == pytest.approx(
             known["lamps"][0]["estimate"][m], rel=1e-6
         )
+
+
+@settings(deadline=None, max_examples=40)
+@given(
+    st.lists(
+        st.floats(-1.0, 1e3, allow_nan=False, allow_infinity=False),
+        min_size=13,
+        max_size=13,
+    )
+)
+def test_rows_never_leave_the_physical_range(values):
+    """Any band values, noisy ones below zero included: every estimate and
+    interval bound lies in LER 0-683 lm/W, G within its cap, CCT 1000-25000 K,
+    or is null with a reason."""
+    from bandopt.inversion import PHYSICAL_RANGE
+
+    est, _, _ = _estimator()
+    (row,) = est.rows(np.array([values]), Conditions.clear(GRID), 0.2)
+    for m, (lo, hi) in PHYSICAL_RANGE.items():
+        v, iv = row["estimate"][m], row["interval90"][m]
+        if v is None:
+            assert iv is None and m in row["null_reasons"]
+            continue
+        assert lo <= v <= hi and lo <= iv[0] <= v <= iv[1] <= hi
