@@ -290,7 +290,7 @@ def fit_direct(ctx, bands, mode: str, *, seed: int = 0) -> DirectEstimator:
     half = np.empty(3)
     for m in range(3):
         ok = ctx.table.valid[lamp_of, m]
-        half[m] = inv_mod._weighted_quantile(err[ok, m], row_w[ok][None], (0.9,))[0, 0]
+        half[m] = inv_mod.weighted_quantile(err[ok, m], row_w[ok][None], (0.9,))[0, 0]
     return DirectEstimator(
         edges,
         weights,

@@ -767,7 +767,7 @@ def _score(y, cand, log_ps, a, q, log_pk, noise, moon_b=None):
     return np.concatenate(lks)[:n, :, :k], np.concatenate(chis)[:n]
 
 
-def _weighted_quantile(values, weights, qs):
+def weighted_quantile(values, weights, qs):
     """Quantiles of discrete distributions row-wise: values (k,), weights (n, k)."""
     order = np.argsort(values)
     v, w = values[order], weights[:, order]
@@ -791,7 +791,7 @@ def _metric_summary(post, vals, okf, order, qs):
     values under the posterior `post` (n, k), renormalised over the valid
     entries. `order` sorts each row's invalid entries first (zero weight, so
     they never hold a quantile: the first entry whose cumulative weight reaches
-    q has weight > 0), then its values; `_weighted_quantile`'s rule."""
+    q has weight > 0), then its values; `weighted_quantile`'s rule."""
 
     def one(v, ok, o):
         w = post * ok[None]
@@ -810,7 +810,7 @@ def _posterior_metrics(post, prior: LampPrior, metrics=(0, 1, 2)):
     P(CCT meaningful). post (n, k) sums to 1 per row. Only the columns of
     `metrics` (indices into `METRICS`) are computed; the others are NaN.
     Compiled (`_metric_summary`, `METRIC_ROWS` rows per call): the same
-    numbers as `_weighted_quantile` on each metric's valid entries."""
+    numbers as `weighted_quantile` on each metric's valid entries."""
     post = np.asarray(post, float)
     t = prior.truth.copy()
     t[:, 2] = np.where(
@@ -1868,7 +1868,7 @@ def fit_inversion(
     mis_all, w_all = np.concatenate(mis_all), np.concatenate(w_all)
     dof = weights.shape[0] - (1 if conditions.moon is None else 2)
     thr = (
-        float(_weighted_quantile(mis_all, w_all[None], (UNEXPLAINED_QUANTILE,))[0, 0])
+        float(weighted_quantile(mis_all, w_all[None], (UNEXPLAINED_QUANTILE,))[0, 0])
         if dof >= 1
         else np.inf
     )
@@ -1978,7 +1978,7 @@ def _conformal_factors(held_out, row_lamp, l2, tm, valid, offset=0.0) -> np.ndar
     for m in range(3):
         ok = ~np.isnan(s_all[:, m])
         conf[m] = max(
-            float(_weighted_quantile(s_all[ok, m], w_all[None, ok], (COVERAGE,))[0, 0]),
+            float(weighted_quantile(s_all[ok, m], w_all[None, ok], (COVERAGE,))[0, 0]),
             0.0,
         )
     return conf

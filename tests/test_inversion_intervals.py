@@ -186,7 +186,7 @@ def _reference_metrics(post, prior, m):
     w = post * ok[None]
     w = w / np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
     vals = np.where(ok, t, 0.0)
-    q = inv_mod._weighted_quantile(vals[ok], w[:, ok], (0.05, 0.95))
+    q = inv_mod.weighted_quantile(vals[ok], w[:, ok], (0.05, 0.95))
     return w @ vals, q
 
 

@@ -601,7 +601,7 @@ def _conformal_halfwidth(fit, rad, ctx):
 
     from ..estimate import to_model_space
     from ..folds import class_balanced_weights
-    from ..inversion import _weighted_quantile
+    from ..inversion import weighted_quantile
 
     errs, wts = [], []
     y, valid = ctx.table.scenario_truth()
@@ -619,7 +619,7 @@ def _conformal_halfwidth(fit, rad, ctx):
     q = np.empty(3)
     for m in range(3):
         ok = ~np.isnan(e[:, m])
-        q[m] = _weighted_quantile(e[ok, m], w[ok][None], (0.9,))[0, 0]
+        q[m] = weighted_quantile(e[ok, m], w[ok][None], (0.9,))[0, 0]
     return q
 
 
