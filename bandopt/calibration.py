@@ -1,0 +1,157 @@
+"""Calibration of class probabilities: reliability, expected calibration error
+and temperature scaling.
+
+A classifier's top-class probability is *calibrated* when, among the pixels
+given probability p, a fraction p is right. The expected calibration error
+(ECE, `Naeini2015`) is the weighted mean gap between confidence and accuracy
+over equal-width confidence bins. Temperature scaling (`Guo2017`) divides the
+log probabilities by one scalar `T` fitted to held-out data; it never
+changes which class is on top, only how sure the answer says it is. The fit
+minimises the weighted multi-class Brier score (`Brier1950`), a proper
+scoring rule that, unlike the log likelihood, also rewards lower confidence on
+pixels whose true class the classifier does not have at all (a lamp type
+missing from the prior): their log likelihood is -inf at every `T`.
+"""
+
+import dataclasses
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+
+ECE_BINS = 10
+"""Equal-width confidence bins of `expected_calibration_error` (the usual
+choice of `Naeini2015` and `Guo2017`)."""
+
+PROBABILITY_FLOOR = 1e-12
+"""Probabilities are floored here before their logarithm: a posterior that
+underflowed to 0 keeps a finite log (and a finite gradient) and is still far
+below any probability a reader would act on."""
+
+TEMPERATURE_BOUNDS = (0.05, 1000.0)
+"""Search range of the temperature (log scale): from much sharper to nearly
+uniform; a fit on the bound is reported as such (`Temperature.at_bound`)."""
+
+
+def _as_weights(weights, n: int) -> np.ndarray:
+    w = np.ones(n) if weights is None else np.asarray(weights, float)
+    if w.shape != (n,) or not np.all(np.isfinite(w)) or np.any(w < 0):
+        raise ValueError(f"weights: need {n} finite values >= 0.")
+    if w.sum() <= 0:
+        raise ValueError("weights: need a positive sum.")
+    return w
+
+
+def reliability_curve(confidence, correct, weights=None, n_bins: int = ECE_BINS):
+    """Per equal-width confidence bin on [0, 1]: (edges (n_bins+1,), mean
+    confidence, accuracy, weight share), the last three (n_bins,) with NaN in
+    empty bins. `confidence` (n,) in [0, 1], `correct` (n,) bool."""
+    c = np.asarray(confidence, float)
+    ok = np.asarray(correct, bool)
+    if c.shape != ok.shape or c.ndim != 1:
+        raise ValueError("confidence and correct: need equal 1-D shapes.")
+    if np.any(~np.isfinite(c)) or np.any((c < 0) | (c > 1)):
+        raise ValueError("confidence: need values in [0, 1].")
+    w = _as_weights(weights, c.size)
+    edges = np.linspace(0.0, 1.0, n_bins + 1)
+    idx = np.clip(np.digitize(c, edges[1:-1], right=True), 0, n_bins - 1)
+    tot = np.bincount(idx, w, n_bins)
+    conf = np.bincount(idx, w * c, n_bins)
+    acc = np.bincount(idx, w * ok, n_bins)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean_c = np.where(tot > 0, conf / np.where(tot > 0, tot, 1.0), np.nan)
+        mean_a = np.where(tot > 0, acc / np.where(tot > 0, tot, 1.0), np.nan)
+    return edges, mean_c, mean_a, tot / w.sum()
+
+
+def expected_calibration_error(
+    confidence, correct, weights=None, n_bins: int = ECE_BINS
+) -> float:
+    """ECE: `Σ_bins share · |accuracy - mean confidence|` of the top-class
+    confidence (`Naeini2015`); 0 is perfectly calibrated. [1]"""
+    _, c, a, share = reliability_curve(confidence, correct, weights, n_bins)
+    used = share > 0
+    return float(np.sum(share[used] * np.abs(a[used] - c[used])))
+
+
+def temper(probabilities, temperature: float) -> np.ndarray:
+    """Probabilities `(n, C)` with their logs divided by `temperature` and
+    renormalised: `p^(1/T) / Σ p^(1/T)`. T > 1 softens, T < 1 sharpens,
+    T = 1 returns them unchanged (to rounding); the order of the classes
+    never changes."""
+    p = np.asarray(probabilities, float)
+    t = float(temperature)
+    if not np.isfinite(t) or t <= 0:
+        raise ValueError(f"temperature {temperature!r}: need a finite value > 0.")
+    logp = np.log(np.maximum(p, PROBABILITY_FLOOR)) / t
+    logp = np.where(p > 0, logp, -np.inf)  # a class the prior lacks stays at 0
+    top = np.max(logp, axis=-1, keepdims=True)
+    top = np.where(np.isfinite(top), top, 0.0)
+    e = np.exp(logp - top)
+    s = e.sum(axis=-1, keepdims=True)
+    return e / np.where(s > 0, s, 1.0)
+
+
+@dataclasses.dataclass(frozen=True)
+class Temperature:
+    """A fitted temperature with what it was fitted on: the rows, the weighted
+    Brier score and top-class ECE before and after, and whether
+    the optimum sits on `TEMPERATURE_BOUNDS`."""
+
+    value: float
+    n_rows: int
+    brier_before: float
+    brier_after: float
+    ece_before: float
+    ece_after: float
+    at_bound: bool
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def brier_score(probabilities, labels, weights=None) -> float:
+    """Weighted multi-class Brier score `Σ_c (p_c - [c = y])²` (`Brier1950`);
+    label -1: a class outside the columns (it adds 1 + Σ p_c²). [1]"""
+    p = np.asarray(probabilities, float)
+    y = np.asarray(labels, int)
+    w = _as_weights(weights, y.size)
+    onehot = (y[:, None] == np.arange(p.shape[1])[None]).astype(float)
+    per = np.sum((p - onehot) ** 2, axis=1) + (y < 0)
+    return float(np.sum(w * per) / w.sum())
+
+
+def fit_temperature(probabilities, labels, weights=None) -> Temperature:
+    """The temperature minimising the weighted Brier score of the true classes
+    `labels (n,)` (column indices into `probabilities (n, C)`; -1: a class the
+    classifier does not have, always wrong) over `TEMPERATURE_BOUNDS`
+    (bounded Brent search on log T, scipy)."""
+    p = np.asarray(probabilities, float)
+    y = np.asarray(labels, int)
+    if p.ndim != 2 or y.shape != (p.shape[0],) or p.shape[0] == 0:
+        raise ValueError("probabilities (n, C) and labels (n,): shapes disagree.")
+    if np.any(~np.isfinite(p)) or np.any(p < 0):
+        raise ValueError("probabilities: need finite values >= 0.")
+    if np.any((y < -1) | (y >= p.shape[1])):
+        raise ValueError(f"labels: need -1 or column indices < {p.shape[1]}.")
+    w = _as_weights(weights, y.size)
+    lo, hi = np.log(TEMPERATURE_BOUNDS)
+    res = minimize_scalar(
+        lambda s: brier_score(temper(p, float(np.exp(s))), y, w),
+        bounds=(lo, hi),
+        method="bounded",
+        options={"xatol": 1e-4},
+    )
+    t = float(np.exp(res.x))
+    conf0 = p.max(axis=1)
+    right = p.argmax(axis=1) == y
+    conf1 = temper(p, t).max(axis=1)
+    return Temperature(
+        value=t,
+        n_rows=int(y.size),
+        brier_before=brier_score(p, y, w),
+        brier_after=brier_score(temper(p, t), y, w),
+        ece_before=expected_calibration_error(conf0, right, w),
+        ece_after=expected_calibration_error(conf1, right, w),
+        at_bound=bool(min(abs(res.x - lo), abs(res.x - hi)) < 1e-3),
+    )
