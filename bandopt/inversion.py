@@ -79,9 +79,10 @@ import numpy as np
 from jax.scipy.special import logsumexp
 
 from . import lampmodels
+from .calibration import expected_calibration_error, fit_temperature, temper
 from .datasets import surfaces as surf_mod
 from .datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT, library
-from .datasets.nir import is_single_band_emitter
+from .datasets.nir import is_single_band_emitter, technology_of
 from .estimate import (
     CCT_RANGE_K,
     METRICS,
@@ -360,13 +361,34 @@ class LampPrior:
     log_prior: np.ndarray
 
 
+def variant_base(lamp_id: str) -> str:
+    """The lamp a prior entry stands for: its id without a NIR-variant prefix
+    (`NIR_VARIANT_TAGS`), so a lamp and its variants share one prior mass."""
+    head, sep, rest = lamp_id.partition(":")
+    return rest if sep and head in NIR_VARIANT_TAGS else lamp_id
+
+
 def lamp_prior(ids, spectra, level1, level2, wavelength_nm) -> LampPrior:
     """Build the prior from training lamps (level2 may repeat level1 for lamps
-    without a level-2 class)."""
+    without a level-2 class). Class-balanced over level-2 classes, each lamp
+    the same within its class; a lamp's NIR variants (`nir_variants`) split
+    its mass, so modelling the NIR's uncertainty does not reweigh classes."""
     spectra = np.asarray(spectra, float)
     truth, valid = lamp_truth(spectra, wavelength_nm)
     l2 = tuple(str(x) for x in level2)
-    w = class_balanced_weights(np.asarray(l2, dtype=object))
+    base = [variant_base(str(i)) for i in ids]
+    groups = {}
+    for b, c in zip(base, l2, strict=True):
+        groups.setdefault(b, [0, c])[0] += 1
+    keys = list(groups)
+    gw = dict(
+        zip(
+            keys,
+            class_balanced_weights(np.asarray([groups[k][1] for k in keys], object)),
+            strict=True,
+        )
+    )
+    w = np.array([gw[b] / groups[b][0] for b in base])
     return LampPrior(tuple(ids), spectra, tuple(level1), l2, truth, valid, np.log(w))
 
 
@@ -1072,6 +1094,54 @@ def shifted_lamps(
     return LampSet(ids, rows, l1, l2)
 
 
+NIR_VARIANT_TAGS = ("nir-low", "nir-high")
+"""Id prefixes of a lamp's NIR variants: its modelled 780-900 nm part scaled
+by the low and high quantile of the extension's measured error
+(`bandopt.datasets.nir.extension_error`)."""
+
+
+def nir_variants(lamps: "LampSet", wavelength_nm) -> "LampSet":
+    """Copies of the library lamps in `lamps` whose part beyond their
+    measured range is modelled (`LampRecord.extended`), with that part (from
+    max(measured end, 780 nm)) scaled by `1 + low` and `1 + high` of its
+    class's measured extension error (5 % and 95 % quantiles, leave-one-out
+    on lamps measured to 900 nm; wide stated bounds where none is
+    validated), renormalised to one lumen. With the lamp itself (the model's
+    central value) they span what the NIR model's validation says the truth
+    may be, so a posterior over the prior does not rest on the modelled part
+    alone: a pixel whose NIR is lower or higher than modelled still finds its
+    lamp. Their visible part is the lamp's, so their LER, G and CCT are too.
+    Ids `nir-low:<id>`, `nir-high:<id>`; `lamp_prior` splits a lamp's mass
+    over it and its variants."""
+    # not at the top: the measured error table is built on first use
+    from .datasets.nir import extension_error
+
+    wl = np.asarray(wavelength_nm, float)
+    recs = {r.id: r for r in library().records}
+    rows, ids, l1, l2 = [], [], [], []
+    vis = wl <= 780.0
+    for i, lamp_id in enumerate(lamps.ids):
+        rec = recs.get(lamp_id)
+        if rec is None or not rec.extended:
+            continue
+        beyond = wl > max(float(rec.measured_range_nm[1]), 780.0)
+        if not beyond.any():
+            continue
+        err = extension_error(rec.level2, technology_of(rec.level2, rec.level1))
+        for tag, factor in zip(NIR_VARIANT_TAGS, (err.low, err.high), strict=True):
+            row = np.array(lamps.spectra[i], float)
+            row[beyond] *= max(1.0 + float(factor), 0.0)
+            rows.append(row)
+            ids.append(f"{tag}:{lamp_id}")
+            l1.append(lamps.level1[i])
+            l2.append(lamps.level2[i])
+    if not rows:
+        return LampSet((), np.zeros((0, lamps.spectra.shape[1])), (), ())
+    out = np.array(rows)
+    lum = np.asarray(ler(out, wl)) * np.trapezoid(out[:, vis], wl[vis], axis=1)
+    return LampSet(tuple(ids), out / lum[:, None], tuple(l1), tuple(l2))
+
+
 def planck_lamps(wavelength_nm) -> LampSet:
     """The library's modelled incandescent spectra (Planck's law,
     `datasets.lamps.MODELLED_INCANDESCENT_K`, per lumen; `Planck1901`), as
@@ -1276,6 +1346,11 @@ def modelled_lamps(
     return lamps, info
 
 
+CLOSE_CALL_RATIO = 0.5
+"""A level-1 call is close when the second type is at least this fraction as
+probable as the first (e.g. 0.6 against 0.3): the answer names both."""
+
+
 @dataclasses.dataclass(frozen=True)
 class InversionResult:
     """Per pixel: `estimate` (n, 3) [lm W⁻¹], [1], [K] (CCT NaN where not
@@ -1329,7 +1404,22 @@ class InversionResult:
             },
             "predicted_level1": self.level1[i],
             "predicted_level2": self.level2[i],
+            "level1_top2": self.top2(i),
         }
+
+    def top2(self, i: int) -> dict:
+        """The two most probable level-1 types of pixel `i` with their
+        probabilities, and whether the call is close (`CLOSE_CALL_RATIO`):
+        then both are answers a user should weigh."""
+        p = self.level1_probabilities[i]
+        order = np.argsort(-p, kind="stable")[:2]
+        pair = [
+            {"type": self.level1_labels[j], "probability": float(p[j])} for j in order
+        ]
+        close = len(pair) == 2 and pair[1]["probability"] >= CLOSE_CALL_RATIO * max(
+            pair[0]["probability"], 1e-300
+        )
+        return {"types": pair, "close": bool(close)}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -1350,6 +1440,8 @@ class Inversion:
     sigma_floor: float = SIGMA_FLOOR
     metric_floor: tuple[float, ...] = ()
     interval_offset: tuple[float, ...] = ()
+    level1_temperature: float = 1.0
+    level2_temperature: float = 1.0
 
     @property
     def offsets(self) -> np.ndarray:
@@ -1587,6 +1679,11 @@ def _result(inv: Inversion, post, misfit, by_metric=None) -> InversionResult:
     parents = [LEVEL2_PARENT.get(c, c) for c in l2]
     l1 = [c for c in LEVEL1 if c in parents]
     p1 = p2 @ np.array([[p == c for c in l1] for p in parents], float)
+    if inv.level1_temperature != 1.0 or inv.level2_temperature != 1.0:
+        # calibrated (fit_inversion(calibrate_probabilities=True)); tempering
+        # keeps each row's order, so the predicted types do not change
+        p1 = temper(p1, inv.level1_temperature)
+        p2 = temper(p2, inv.level2_temperature)
     parent_idx = np.array([l1.index(p) for p in parents])
     i1 = np.argmax(p1, axis=1)
     inside = parent_idx[None, :] == i1[:, None]
@@ -1646,6 +1743,8 @@ def fit_inversion(
     mixtures: int = 0,
     interval_offsets: Sequence[float] = (0.0,),
     peak_shifts: Sequence[float] = (),
+    nir_error: bool = False,
+    calibrate_probabilities: bool = False,
 ) -> Inversion:
     """Fit an inversion on `train_lamps` (indices into `lamps`).
 
@@ -1706,7 +1805,19 @@ def fit_inversion(
     the held-out calibration lamps (`_narrowest_intervals`; every candidate
     is calibrated to the same coverage there). `diagnostics
     ["interval_candidates"]` holds each candidate's factors and mean widths,
-    so `Inversion.with_interval_offset` gives any candidate's intervals."""
+    so `Inversion.with_interval_offset` gives any candidate's intervals.
+
+    `nir_error` (default False): every prior this fit builds also holds the
+    NIR variants of its extended lamps (`nir_variants`), so the modelled
+    780-900 nm part carries its measured error into every band that sees it.
+
+    `calibrate_probabilities` (default False): the level-1 and level-2
+    probabilities are temperature-scaled (`bandopt.calibration`) on held-out
+    rows: the inner folds' (types the prior knows) and, with calibration
+    "classes", the rows of each training class held out in turn (types it
+    lacks), the two groups weighted equally, each class-balanced.
+    `diagnostics["probabilities"]` gives the temperatures, the ECE before and
+    after per group and the `unexplained` rate on both groups."""
     fracs = [float(x) for x in interval_offsets]
     if not fracs or min(fracs) < 0 or len(set(fracs)) != len(fracs):
         raise ValueError(
@@ -1759,6 +1870,8 @@ def fit_inversion(
             pset = pset + mixture_lamps(measured, mixtures, seed=modelled_seed)
         if peak_shifts:
             pset = pset + shifted_lamps(measured, grid, peak_shifts)
+        if nir_error:
+            pset = pset + nir_variants(measured, grid)
         pset = pset if extra is None else pset + extra
         return build_inversion(
             pset, weights, conditions, basis, surface_mode, noise[0], noise[1]
@@ -1795,6 +1908,7 @@ def fit_inversion(
     scores_m = {s: [] for s in grid_n}  # per metric (3,)
     evid = {s: [] for s in grid_n}
     calib = {s: [] for s in grid_n}
+    known_probs = {s: [] for s in grid_n}  # (rows, va, level-1, level-2 probs)
     for tr, va in inner:
         rows = rows_of(va)
         inv = make(lamps.take(tr), grid_n[0], modelled(tr)[0])
@@ -1824,6 +1938,9 @@ def fit_inversion(
             per_lamp = np.array([lev[rl == lamp, j].mean() for lamp in va])
             evid[s].append(float(np.sum(w * per_lamp) / max(w.sum(), 1e-300)))
             calib[s].append((rows, mean, rng, misfit, va))
+            if calibrate_probabilities:
+                probs = _global_probabilities(post, inv.prior)
+                known_probs[s].append((rows, va, *probs))
     if sigma_rule == "evidence":
         best = max(grid_n, key=lambda s: float(np.mean(evid[s])))
     else:
@@ -1836,6 +1953,7 @@ def fit_inversion(
         )
     # conformal factors and reject threshold from the held-out inner lamps
     held_out = _per_metric_held_out([calib[x] for x in per_metric])
+    novel_probs = []  # the rows of each training class held out in turn
     if calibration == "classes":  # each training class held out in turn
         held_out = []
         sig = sorted({best, *per_metric})
@@ -1858,6 +1976,15 @@ def fit_inversion(
                 [posts[:, sig.index(x)] for x in per_metric], inv.prior
             )
             held_out.append((rows, mean, rng, misfits[:, sig.index(best)], va))
+            if calibrate_probabilities:
+                novel_probs.append(
+                    (
+                        rows,
+                        va,
+                        *_global_probabilities(posts[:, sig.index(best)], inv.prior),
+                        misfits[:, sig.index(best)],
+                    )
+                )
     offs = np.array(fracs)[:, None] * spread[None]
     pick, confs, widths = _narrowest_intervals(held_out, row_lamp, l2, tm, valid, offs)
     conf, offset = confs[pick, np.arange(3)], offs[pick, np.arange(3)]
@@ -1874,6 +2001,11 @@ def fit_inversion(
     )
     extra, extra_info = modelled(train_lamps)
     final = make(lamps.take(train_lamps), best, extra)
+    temps, prob_diag = (1.0, 1.0), {"calibrated": False}
+    if calibrate_probabilities:
+        temps, prob_diag = _probability_temperatures(
+            known_probs[best], novel_probs, calib[best], thr, row_lamp, lamps, l2
+        )
 
     def key(x) -> str:  # a σ alone when the floor is not chosen
         return str(x[0]) if len(floor_grid) == 1 else f"{x[0]:g}/{x[1]:g}"
@@ -1886,7 +2018,14 @@ def fit_inversion(
         metric_sigma=tuple(x[0] for x in per_metric) if per else (),
         metric_floor=tuple(x[1] for x in per_metric) if per else (),
         interval_offset=tuple(offset.tolist()),
+        level1_temperature=float(temps[0]),
+        level2_temperature=float(temps[1]),
         diagnostics={
+            "probabilities": prob_diag,
+            "nir_error": {
+                "variants": bool(nir_error),
+                "n": sum(variant_base(i) != i for i in final.prior.ids),
+            },
             "sigma_rel": best[0],
             "sigma_floor": best[1],
             "floor_grid": [float(f) for f in floor_grid],
@@ -1934,6 +2073,77 @@ def fit_inversion(
             },
         },
     )
+
+
+GLOBAL_LEVEL2 = tuple(dict.fromkeys((*LEVEL2, *LEVEL1)))
+"""Level-2 columns of the calibration rows: every level-2 class, then the
+level-1 names that stand for lamps without a level-2 class."""
+
+
+def _global_probabilities(post, prior: LampPrior):
+    """Level-1 (n, len(LEVEL1)) and level-2 (n, len(GLOBAL_LEVEL2))
+    probabilities of posteriors `post` (n, k) on fixed columns, so rows from
+    priors that lack some classes line up (a class the prior lacks: 0)."""
+    m1 = np.array([[c == x for x in LEVEL1] for c in prior.level1], float)
+    m2 = np.array([[c == x for x in GLOBAL_LEVEL2] for c in prior.level2], float)
+    return post @ m1, post @ m2
+
+
+def _probability_temperatures(known, novel, calib_best, thr, row_lamp, lamps, l2):
+    """Temperatures of the level-1 and level-2 probabilities fitted on the
+    held-out rows `known` (inner folds) and `novel` (classes held out), each
+    group class-balanced and weighing half (all, when `novel` is empty), and
+    the diagnostics: temperatures, ECE before/after per group, `unexplained`
+    rate per group at threshold `thr`."""
+    groups = {"known_types": known, "left_out_types": novel}
+    data = {}
+    for name, items in groups.items():
+        if not items:
+            continue
+        rows = np.concatenate([it[0] for it in items])
+        w = np.concatenate([_row_weights(it[0], it[1], row_lamp, l2) for it in items])
+        data[name] = (
+            rows,
+            w / w.sum(),
+            np.vstack([it[2] for it in items]),
+            np.vstack([it[3] for it in items]),
+        )
+    lab1 = np.array([LEVEL1.index(x) for x in lamps.level1])
+    lab2 = np.array([GLOBAL_LEVEL2.index(x) for x in lamps.level2])
+    share = 1.0 / len(data)
+    rows = np.concatenate([d[0] for d in data.values()])
+    w = np.concatenate([d[1] * share for d in data.values()])
+    fits = [
+        fit_temperature(
+            np.vstack([d[k] for d in data.values()]), lab[row_lamp[rows]], w
+        )
+        for k, lab in ((2, lab1), (3, lab2))
+    ]
+    diag = {
+        "calibrated": True,
+        "method": "temperature scaling fitted by the Brier score (bandopt.calibration)",
+        "level1": fits[0].to_dict(),
+        "level2": fits[1].to_dict(),
+        "groups": {},
+    }
+    mis_known = np.concatenate([m[3] for m in calib_best])
+    for name, (r, wg, p1, _p2) in data.items():
+        right = p1.argmax(axis=1) == lab1[row_lamp[r]]
+        flagged = (
+            mis_known > thr
+            if name == "known_types"
+            else np.concatenate([it[4] for it in novel]) > thr
+        )
+        diag["groups"][name] = {
+            "rows": int(r.size),
+            "level1_right": float(np.sum(wg * right)),
+            "ece_level1_before": expected_calibration_error(p1.max(axis=1), right, wg),
+            "ece_level1_after": expected_calibration_error(
+                temper(p1, fits[0].value).max(axis=1), right, wg
+            ),
+            "unexplained_rate": float(np.sum(wg * flagged)),
+        }
+    return (fits[0].value, fits[1].value), diag
 
 
 def _per_metric_held_out(per_metric_calib):

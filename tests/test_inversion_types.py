@@ -1,0 +1,112 @@
+"""The inversion's type probabilities: calibrated by temperature on held-out
+lamps and held-out types (`fit_inversion(calibrate_probabilities=True)`), the
+top two named when the call is close, and NIR variants that share their
+lamp's prior mass (`lamp_prior`, `nir_variants`)."""
+
+import numpy as np
+import pytest
+
+from bandopt import inversion as inv_mod
+from bandopt.calibration import brier_score
+from tests._bands import GRID
+from tests.test_inversion_models import _case
+
+
+@pytest.fixture(scope="module")
+def case():
+    return _case()
+
+
+@pytest.fixture(scope="module")
+def fits(case):
+    """The same fit with and without calibrated probabilities."""
+    lamps, row_lamp, rad, train, _test, inner, w = case
+    cond = inv_mod.Conditions.clear(GRID)
+    kw = dict(basis=inv_mod._basis(GRID), calibration="classes")
+    plain = inv_mod.fit_inversion(rad, row_lamp, lamps, train, inner, w, cond, **kw)
+    cal = inv_mod.fit_inversion(
+        rad, row_lamp, lamps, train, inner, w, cond, calibrate_probabilities=True, **kw
+    )
+    return plain, cal
+
+
+def test_calibration_changes_confidence_not_answers(case, fits):
+    _lamps, row_lamp, rad, _train, test, *_ = case
+    plain, cal = fits
+    assert plain.level1_temperature == 1.0 and cal.level1_temperature != 1.0
+    rows = np.flatnonzero(np.isin(row_lamp, test))
+    a, b = plain.predict(rad[rows]), cal.predict(rad[rows])
+    assert a.level1 == b.level1 and a.level2 == b.level2
+    np.testing.assert_array_equal(a.estimate, b.estimate)
+    np.testing.assert_allclose(b.level1_probabilities.sum(axis=1), 1.0)
+    np.testing.assert_array_equal(
+        a.level1_probabilities.argmax(axis=1), b.level1_probabilities.argmax(axis=1)
+    )
+    assert not np.allclose(a.level1_probabilities, b.level1_probabilities)
+
+
+def test_calibration_diagnostics_cover_both_groups(fits):
+    _, cal = fits
+    d = cal.diagnostics["probabilities"]
+    assert d["calibrated"] and set(d["groups"]) == {"known_types", "left_out_types"}
+    for g in d["groups"].values():
+        assert g["rows"] > 0 and 0.0 <= g["unexplained_rate"] <= 1.0
+        assert 0.0 <= g["ece_level1_after"] <= 1.0
+    # the Brier score the temperature minimises does not get worse than T = 1
+    assert d["level1"]["brier_after"] <= d["level1"]["brier_before"] + 1e-12
+    assert fits[0].diagnostics["probabilities"] == {"calibrated": False}
+
+
+def test_left_out_types_cannot_be_named_so_they_soften_the_answer():
+    """Rows of a class the prior lacks are always wrong: the fitted
+    temperature lowers the confidence the uncalibrated posterior gave them."""
+    post = np.array([[0.98, 0.02, 0.0]] * 10 + [[0.99, 0.01, 0.0]] * 10)
+    labels = np.r_[np.zeros(10, int), np.full(10, 2)]  # half: class 2, unseen
+    from bandopt.calibration import fit_temperature, temper
+
+    t = fit_temperature(post, labels)
+    assert t.value > 1.0
+    assert brier_score(temper(post, t.value), labels) < brier_score(post, labels)
+
+
+def _result(p1):
+    p1 = np.asarray(p1, float)
+    n = p1.shape[0]
+    return inv_mod.InversionResult(
+        estimate=np.zeros((n, 3)),
+        interval90=np.zeros((n, 3, 2)),
+        cct_probability=np.ones(n),
+        unexplained=np.zeros(n, bool),
+        misfit=np.zeros(n),
+        level1_labels=("led", "hid", "fluorescent"),
+        level1_probabilities=p1,
+        level2_labels=(),
+        level2_probabilities=np.zeros((n, 0)),
+        level1=("led",) * n,
+        level2=(None,) * n,
+        testable=True,
+    )
+
+
+def test_top_two_and_close_calls():
+    res = _result([[0.6, 0.1, 0.3], [0.9, 0.06, 0.04]])
+    close = res.row(0)["level1_top2"]
+    assert close["close"] and [t["type"] for t in close["types"]] == [
+        "led",
+        "fluorescent",
+    ]
+    assert close["types"][1]["probability"] == pytest.approx(0.3)
+    clear = res.top2(1)
+    assert not clear["close"] and clear["types"][0]["type"] == "led"
+
+
+def test_variants_share_their_lamps_prior_mass():
+    spectra = np.ones((5, GRID.size))
+    ids = ("a", "nir-low:a", "nir-high:a", "b", "c")
+    l2 = ("led_warm", "led_warm", "led_warm", "led_warm", "hps")
+    l1 = ("led", "led", "led", "led", "hid")
+    prior = inv_mod.lamp_prior(ids, spectra, l1, l2, GRID)
+    w = np.exp(prior.log_prior)
+    np.testing.assert_allclose(w, [1 / 12, 1 / 12, 1 / 12, 1 / 4, 1 / 2])
+    assert inv_mod.variant_base("nir-high:a") == "a"
+    assert inv_mod.variant_base("mix:a+b@0.5") == "mix:a+b@0.5"
