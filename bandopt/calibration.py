@@ -28,6 +28,10 @@ PROBABILITY_FLOOR = 1e-12
 underflowed to 0 keeps a finite log (and a finite gradient) and is still far
 below any probability a reader would act on."""
 
+ROUNDING = 1e-9
+"""Confidences this far outside [0, 1] are rounding (a posterior summed over
+thousands of lamps) and are clipped; further out is an error."""
+
 TEMPERATURE_BOUNDS = (0.05, 1000.0)
 """Search range of the temperature (log scale): from much sharper to nearly
 uniform; a fit on the bound is reported as such (`Temperature.at_bound`)."""
@@ -50,8 +54,9 @@ def reliability_curve(confidence, correct, weights=None, n_bins: int = ECE_BINS)
     ok = np.asarray(correct, bool)
     if c.shape != ok.shape or c.ndim != 1:
         raise ValueError("confidence and correct: need equal 1-D shapes.")
-    if np.any(~np.isfinite(c)) or np.any((c < 0) | (c > 1)):
+    if np.any(~np.isfinite(c)) or np.any((c < -ROUNDING) | (c > 1 + ROUNDING)):
         raise ValueError("confidence: need values in [0, 1].")
+    c = np.clip(c, 0.0, 1.0)
     w = _as_weights(weights, c.size)
     edges = np.linspace(0.0, 1.0, n_bins + 1)
     idx = np.clip(np.digitize(c, edges[1:-1], right=True), 0, n_bins - 1)

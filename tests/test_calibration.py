@@ -87,3 +87,9 @@ def test_brier_score_values():
 def test_fit_temperature_refuses_bad_input(p, y, msg):
     with pytest.raises(ValueError, match=msg):
         fit_temperature(p, y)
+
+
+def test_rounding_above_one_is_clipped_not_refused():
+    assert expected_calibration_error([1.0 + 1e-12], [True]) == 0.0
+    with pytest.raises(ValueError, match="confidence"):
+        expected_calibration_error([1.01], [True])
