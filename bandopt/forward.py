@@ -47,6 +47,7 @@ from .scene import (
     band_terms,
     band_weights,
     lamp_scenes,
+    mix_label,
 )
 from .sensor import (
     SensorParams,
@@ -544,23 +545,49 @@ def simulate(
     )
 
 
+def lamp_levels(scen: ScenarioSet) -> tuple[list, list]:
+    """Level-1 and level-2 label of every lamp of `scen`: a library lamp's
+    classes; a mixed lamp (`build_scenarios` entry ``(a, b, f)``, id
+    ``"a+b@f"``) gets its components' shared class, or ``"class_a+class_b@f"``
+    (`scene.mix_label`) when they differ. Raises `ValueError` naming a lamp
+    that is neither (a lamp given by `ScenarioSet.with_lamps`: its classes are
+    the caller's)."""
+    rec = {r.id: r for r in library().records}
+    mixes = {
+        mix_label(a, b, float(f)): (a, b, float(f))
+        for a, b, f in scen.config.get("lamp_mixtures", ())
+    }
+    level1, level2 = [], []
+    for lamp_id in scen.lamp_ids:
+        if lamp_id in rec:
+            level1.append(rec[lamp_id].level1)
+            level2.append(rec[lamp_id].level2)
+        elif lamp_id in mixes and all(x in rec for x in mixes[lamp_id][:2]):
+            a, b, f = mixes[lamp_id]
+            for out, level in ((level1, "level1"), (level2, "level2")):
+                la, lb = getattr(rec[a], level), getattr(rec[b], level)
+                out.append(la if la == lb else mix_label(str(la), str(lb), f))
+        else:
+            raise ValueError(
+                f"Lamp {lamp_id!r} is neither a library lamp nor a mix of two: its "
+                "classes are unknown (give them to scenario_table)."
+            )
+    return level1, level2
+
+
 def to_frame(scen: ScenarioSet, sim: Simulation):
     """A pandas DataFrame: one row per lamp scene, label columns (lamp id,
-    level1, level2, surface, atmosphere, moon, class, illuminance) and one
-    radiance column per band [W m⁻² sr⁻¹ nm⁻¹]."""
+    level1, level2 as in `lamp_levels`, surface, atmosphere, moon, class,
+    illuminance) and one radiance column per band [W m⁻² sr⁻¹ nm⁻¹]."""
     import pandas as pd  # pandas only for this export (start-up time)
 
-    rec = {r.id: r for r in library().records}
+    level1, level2 = lamp_levels(scen)
     shape = sim.radiance.shape[:-1]
     idx = np.indices(shape).reshape(len(shape), -1)
     frame = {
         "lamp": np.asarray(scen.lamp_ids, dtype=object)[idx[0]],
-        "level1": np.asarray([rec[i].level1 for i in scen.lamp_ids], dtype=object)[
-            idx[0]
-        ],
-        "level2": np.asarray([rec[i].level2 for i in scen.lamp_ids], dtype=object)[
-            idx[0]
-        ],
+        "level1": np.asarray(level1, dtype=object)[idx[0]],
+        "level2": np.asarray(level2, dtype=object)[idx[0]],
         "surface": np.asarray(scen.surface_labels, dtype=object)[idx[1]],
         "atmosphere": np.asarray(scen.atmosphere_labels, dtype=object)[idx[2]],
         "moon": np.asarray(scen.moon_labels, dtype=object)[idx[3]],

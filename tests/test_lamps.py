@@ -139,6 +139,10 @@ def test_extension_flags_and_switch(lib):
         assert r_on.extended == bool(beyond.any()) and not r_off.extended
         assert np.all(np.isnan(v_off[beyond])) and np.all(np.isfinite(v_on))
         inside = ~beyond
+        if r_on.measured_range_nm[1] < 780.0:
+            # Cut below 780 nm: the extension's part up to 780 nm adds to the
+            # lumen only when on, so the two rows agree up to their scale.
+            v_on, v_off = v_on / np.max(v_on[inside]), v_off / np.max(v_off[inside])
         np.testing.assert_allclose(v_on[inside], v_off[inside], rtol=1e-12)
     by_id = {r.id: r for r in lib.records}
     assert by_id["li1800_osram_super_vialox"].extended is False
@@ -203,10 +207,12 @@ def test_new_sets_present_with_their_ids(lib):
     assert len(lspdd) >= 150
     assert all(re.fullmatch(r"lspdd_\d+", r.id) for r in lspdd)
     # The LSPDD record number is kept: 2608 is the Philips RoadStar road
-    # luminaire (4100 K), a cool LED measured to 899.5 nm, not extended.
+    # luminaire (4100 K), a cool LED measured to 899.5 nm whose near-infrared
+    # is clipped (not NIR evidence): extended from 780 nm.
     road = by_id["lspdd_2608"]
     assert "RoadStar" in road.name and road.level2 == "led_cool"
-    assert road.nir_measured and not road.extended and road.licence.startswith("CC")
+    assert road.extended and not road.nir_measured and road.licence.startswith("CC")
+    assert "clipped" in road.cut_reason and road.source_range_nm[1] == 899.5
     assert by_id["lspdd_2481"].level2 == "metal_halide"
     assert by_id["photobiology_epileds_3w_590nm"].subtype == "direct_amber"
     assert by_id["color_pollution_philips_amber_pc_led"].subtype == "pc_amber"
@@ -225,6 +231,8 @@ def test_measured_to_900_nm_never_extended(lib):
         if r.source_set in ("lspdd", "photobiology", "color_pollution"):
             if r.measured_range_nm[1] >= 900.0 - lamps.EDGE_HOLD_NM:
                 assert r.nir_measured and not r.extended, r.id
+            elif r.source_range_nm is not None:  # cut: rejected NIR, zeros
+                assert r.extended and r.cut_reason, r.id
 
 
 def test_library_builds_without_lspdd(monkeypatch):

@@ -45,8 +45,10 @@ def test_every_extended_led_is_continuous_at_its_measured_end(lib):
     w = lib.wavelength_nm
     checked = 0
     for r, v in zip(lib.records, lib.values, strict=True):
-        if not (r.extended and r.level1 == "led"):
-            continue
+        if not (r.extended and r.level1 == "led") or r.subtype == "direct_amber":
+            continue  # direct amber emitters: tails e-folding < 20 nm
+        if r.cut_reason and ("zeros" in r.cut_reason or "clipped" in r.cut_reason):
+            continue  # ends where a tail was clipped into noise: steep there
         e = int(np.searchsorted(w, r.measured_range_nm[1], side="right")) - 1
         if v[e] < 1e-4 * np.nanmax(v):
             continue
@@ -162,7 +164,7 @@ def test_unknown_technology_lists_choices():
     w = np.arange(380.0, 781.0, 1.0)
     with pytest.raises(ValueError, match="expected one of"):
         nir.extend_spectrum(w, np.ones_like(w), "plasma", np.array([800.0]))
-    with pytest.raises(ValueError, match=r"\(780, 900\]"):
+    with pytest.raises(ValueError, match="end before new_wavelength_nm"):
         nir.extend_spectrum(w, np.ones_like(w), "hps", np.array([700.0]))
 
 

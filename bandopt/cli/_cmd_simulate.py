@@ -24,15 +24,17 @@ def register(subparsers):
         p,
         "--lamps",
         metavar="ID",
-        help="library lamp ids (see bandopt library), or 'scored' for the scored "
-        "classes only",
+        help="library lamp ids (see bandopt library), A+B@F for a pixel lit by "
+        "lamp A for a fraction F of its light and by B for the rest, or 'scored' "
+        "for the scored classes only",
         default_help="all measured lamps",
     )
     add_list_option(
         p,
         "--surfaces",
         metavar="TYPE",
-        help="surface types (see bandopt surfaces)",
+        help="surface types (see bandopt surfaces), or A+B@F for a pixel covered "
+        "by A over a fraction F of its area and by B over the rest",
         default_help="the seven default surfaces, bandopt.scene.DEFAULT_SURFACES",
     )
     add_list_option(
@@ -40,8 +42,7 @@ def register(subparsers):
         "--atmospheres",
         metavar="ATMOSPHERE/AEROSOL/VIS_KM",
         help="6S atmospheres, e.g. midlatitude_summer/urban/23, or none",
-        default_help="the four default atmospheres, "
-        "bandopt.scene.DEFAULT_ATMOSPHERES",
+        default_help="the four default atmospheres, bandopt.scene.DEFAULT_ATMOSPHERES",
     )
     add_list_option(
         p,
@@ -131,10 +132,36 @@ def _atm(text: str):
     parts = text.split("/")
     if len(parts) != 3:
         raise ValueError(
-            f"--atmospheres {text!r}: expected ATMOSPHERE/AEROSOL/VIS_KM "
-            "or none."
+            f"--atmospheres {text!r}: expected ATMOSPHERE/AEROSOL/VIS_KM or none."
         )
     return (parts[0], parts[1], float(parts[2].lower().removesuffix("km")))
+
+
+def _entry(text: str, what: str):
+    """A list value of --lamps or --surfaces: a name, or a mixed pixel
+    ``A+B@F`` (F the fraction of A, as `scene.mix_label` writes it) as the
+    tuple `build_scenarios` takes."""
+    if "+" not in text and "@" not in text:
+        return text
+    head, sep, frac = text.rpartition("@")
+    a, plus, b = head.partition("+")
+    if not (sep and plus and a and b and "+" not in b):
+        raise ValueError(
+            f"--{what} {text!r}: a mixed pixel is written A+B@F (F the fraction "
+            "of A, 0-1)."
+        )
+    try:
+        fraction = float(frac)
+    except ValueError:
+        raise ValueError(
+            f"--{what} {text!r}: the fraction {frac!r} of a mixed pixel A+B@F is "
+            "not a number."
+        ) from None
+    if not 0.0 <= fraction <= 1.0:
+        raise ValueError(
+            f"--{what} {text!r}: the fraction of a mixed pixel must lie in [0, 1]."
+        )
+    return (a, b, fraction)
 
 
 def run(args) -> int:
@@ -172,9 +199,13 @@ def run(args) -> int:
     scored_only = bool(lamps) and lamps == ["scored"]
     moons = tuple(None if m.lower() == "none" else m for m in args.moon)
     scen = build_scenarios(
-        lamps=None if (not lamps or scored_only) else lamps,
+        lamps=None
+        if (not lamps or scored_only)
+        else [_entry(x, "lamps") for x in lamps],
         scored_only=scored_only,
-        surfaces=args.surfaces or DEFAULT_SURFACES,
+        surfaces=[_entry(x, "surfaces") for x in args.surfaces]
+        if args.surfaces
+        else DEFAULT_SURFACES,
         atmospheres=[_atm(a) for a in args.atmospheres]
         if args.atmospheres
         else DEFAULT_ATMOSPHERES,

@@ -39,6 +39,18 @@ measured to within `EDGE_HOLD_NM` of the grid end (LSPDD to 899.5 nm,
 photobiology to ~899 nm) is measured, not extended: its last sample is held
 over the remaining < `EDGE_HOLD_NM` (flag `nir_measured`).
 
+**What is kept as measured** (`usable_range`, flag `cut_reason`): trailing
+zeros (or samples below `TRUNCATION_LEVEL` of the peak) end a measurement
+(`measured_end`); near-infrared that
+`nir_quality` rejects as evidence (clipped, rising edge) is not simulated but
+replaced by the technology's extension from 780 nm; a rising background that
+reaches into the visible (`contamination_start`) is fitted where it dominates
+and subtracted (a lamp contaminated below `CUT_MIN_NM` is excluded from
+scoring); the 765-780 nm plateau artefact of a
+mercury spectrum (`plateau_start`) is cut. `measured_range_nm` is the kept
+part, `source_range_nm` the source's own range when they differ. The mercury
+extension is an upper bound (`nir.UPPER_BOUND`), said in its note.
+
 **Typology** (fixed identifiers): level 1 `LEVEL1`, level 2 `LEVEL2`. White
 phosphor LEDs are `led_warm` for CCT <= 3500 K and `led_cool` above. A
 level-2 class with fewer than `MIN_LAMPS_FOR_SCORING` distinct measured lamps is
@@ -84,6 +96,9 @@ from ._lamp_sources import (
     AMBER_DOMINANT_NM as AMBER_DOMINANT_NM,
     AMBER_MIN_PURITY as AMBER_MIN_PURITY,
     COLOURED_DUV as COLOURED_DUV,
+    CONTAMINATION_FIT_NM as CONTAMINATION_FIT_NM,
+    CONTAMINATION_MAX_FRACTION as CONTAMINATION_MAX_FRACTION,
+    CUT_MIN_NM as CUT_MIN_NM,
     DATASHEET_LIKE as DATASHEET_LIKE,
     DIRECT_AMBER_MAX_WIDTH_NM as DIRECT_AMBER_MAX_WIDTH_NM,
     DUPLICATE_RMS as DUPLICATE_RMS,
@@ -93,17 +108,27 @@ from ._lamp_sources import (
     LEVEL2,
     LEVEL2_PARENT,
     LSPDD_ENV as LSPDD_ENV,
+    MERCURY_PLATEAU_FROM_NM as MERCURY_PLATEAU_FROM_NM,
+    MERCURY_PLATEAU_RATIO as MERCURY_PLATEAU_RATIO,
     NIR_CLIPPED_MAX as NIR_CLIPPED_MAX,
     NIR_RISING_EDGE as NIR_RISING_EDGE,
     PC_AMBER_MIN_BLUE as PC_AMBER_MIN_BLUE,
     SOURCE_PRIORITY as SOURCE_PRIORITY,
+    TRUNCATION_LEVEL as TRUNCATION_LEVEL,
+    TRUNCATION_MIN_NM as TRUNCATION_MIN_NM,
     WHITE_SON_MIN_CCT_K as WHITE_SON_MIN_CCT_K,
+    UsableRange as UsableRange,
     _classified,
     classes_with_measured_nir,
+    contamination_start as contamination_start,
     lspdd_enabled,
+    measured_end as measured_end,
     measured_nir_spectra as measured_nir_spectra,
-    nir_quality,
+    nir_quality as nir_quality,
     parse_lspdd_spectrum as parse_lspdd_spectrum,
+    plateau_start as plateau_start,
+    rising_component as rising_component,
+    usable_range,
 )
 
 
@@ -134,7 +159,8 @@ class LampRecord:
     - `level1`, `level2`: typology (`LEVEL1`, `LEVEL2`; `level2` may be None).
     - `source`: bibliography key; `source_set`: the collection.
     - `unit`: unit of the library values.
-    - `measured_range_nm`: what was measured. [nm]
+    - `measured_range_nm`: the part of the source spectrum kept as measured
+      (`usable_range`); beyond it the values are extended. [nm]
     - `extended`: values beyond the measured range come from `bandopt.datasets.nir`.
     - `extension_validated`: the extension's technology was checked against a
       measurement (None when not extended).
@@ -151,6 +177,11 @@ class LampRecord:
       `EDGE_HOLD_NM`), so nothing beyond 780 nm is modelled.
     - `nir_note`: where its values beyond 780 nm come from, and whether the
       extension of its technology has measured evidence.
+    - `cut_reason`: why the kept part ends before the source's last sample
+      (trailing zeros, near-infrared rejected as evidence, a contaminated
+      red end, the mercury plateau artefact), or None.
+    - `source_range_nm`: the source spectrum's own range when the library
+      keeps less of it (else None). [nm]
     """
 
     id: str
@@ -172,10 +203,14 @@ class LampRecord:
     subtype: str | None = None
     nir_measured: bool = False
     nir_note: str = ""
+    cut_reason: str | None = None
+    source_range_nm: tuple[float, float] | None = None
 
     def as_dict(self) -> dict:
         d = dataclasses.asdict(self)
         d["measured_range_nm"] = list(self.measured_range_nm)
+        if self.source_range_nm is not None:
+            d["source_range_nm"] = list(self.source_range_nm)
         d["duplicates"] = list(self.duplicates)
         return d
 
@@ -302,7 +337,9 @@ def _per_lumen(wavelength_nm, values):
     v = SDS_LEFS["CIE 1924 Photopic Standard Observer"]
     vis = (wavelength_nm >= 380.0) & (wavelength_nm <= 780.0)
     w = wavelength_nm[vis]
-    lum = K_M_LM_PER_W * np.trapezoid(values[vis] * v[w], w)
+    # With the extension off, a spectrum cut below 780 nm is unknown (NaN) up
+    # to 780 nm: that part counts 0 in its lumen (V < 3e-4 there).
+    lum = K_M_LM_PER_W * np.trapezoid(np.nan_to_num(values[vis]) * v[w], w)
     return values / lum
 
 
@@ -312,22 +349,26 @@ only when that sample is below this fraction of its peak (PC_Amber.csv starts
 at 400 nm at 0.1 % of peak); otherwise the build fails."""
 
 
-def _nir_note(extended, measured, tech, validated, end_nm, quality=None):
+def _nir_note(extended, measured, tech, validated, end_nm, cut_reason=None):
     if measured:
-        if quality:
-            return f"measured to {end_nm:g} nm; not NIR evidence: {quality}"
         return f"measured to {end_nm:g} nm"
     if not extended:
-        return "beyond the measured range: unknown (NaN), extension off"
-    if validated:
-        return (
+        note = "beyond the measured range: unknown (NaN), extension off"
+    elif validated:
+        note = (
             f"extended beyond {end_nm:g} nm ({tech}); the extension of this "
             "technology is validated leave-one-out on measured spectra"
         )
-    return (
-        f"extended beyond {end_nm:g} nm ({tech}); no leave-one-out validation on "
-        "measured spectra of this class (see results/library/nir_validation.json)"
-    )
+    else:
+        note = (
+            f"extended beyond {end_nm:g} nm ({tech}); no leave-one-out validation "
+            "on measured spectra of this class (see `nir.extension_error`)"
+        )
+    if extended and tech in nir.UPPER_BOUND:
+        note += f"; the {tech} extension is an upper bound, not a measurement"
+    if cut_reason:
+        note += f"; source cut: {cut_reason}"
+    return note
 
 
 @functools.cache
@@ -346,8 +387,12 @@ def _build(
     for i in kept:
         r = raws[i]
         level1, level2, subtype, excluded = classified[i]
-        w, s = r.wavelength_nm, r.values
+        use = usable_range(r.wavelength_nm, r.values, level2)
+        keep = r.wavelength_nm <= use.end_nm
+        w, s = r.wavelength_nm[keep], use.values[keep]
+        excluded = excluded or use.excluded
         start, end = float(w[0]), float(w[-1])
+        source_end = float(r.wavelength_nm[-1])
         row = np.full(grid.shape, np.nan)
         inside = (grid >= start) & (grid <= end)
         row[inside] = np.interp(grid[inside], w, s)
@@ -371,9 +416,8 @@ def _build(
             validated = (
                 nir.is_validated(tech) and subtype != "white_son" and level2 in with_nir
             )
-        quality = nir_quality(w, s) if measured_nir else None
         note = (
-            _nir_note(extended, measured_nir, tech, validated, end, quality)
+            _nir_note(extended, measured_nir, tech, validated, end, use.reason)
             if beyond.any() or measured_nir
             else ""
         )
@@ -403,6 +447,8 @@ def _build(
                 subtype=subtype,
                 nir_measured=measured_nir,
                 nir_note=note,
+                cut_reason=use.reason,
+                source_range_nm=(start, source_end) if end < source_end else None,
             )
         )
 

@@ -23,9 +23,12 @@ measured to 900 nm (LI-1800 `Aphalo2023`, LSPDD `LSPDD2016`, photobiology
   calibration lamps of their non-negative least-squares fits.
 - **Mercury**: continuum only (no Hg I line lies in 780-900 nm), per unit
   visible power, calibrated on the one measured mercury lamp (color-pollution
-  HgV, to 930 nm: NIR/visible 0.057). The former flat copy of the 770-780 nm
-  level carried a data artefact (a plateau at 8.5-11 % of peak in two Philips
-  spectra) to 900 nm, giving NIR/visible 0.31-0.36.
+  HgV, to 930 nm: NIR/visible 0.057). Its 780-930 nm level is flat at its
+  instrument floor, so the calibration is an **upper bound** on a mercury
+  lamp's near-infrared, not a measurement of it (`UPPER_BOUND`; its error
+  bound in `extension_error` is -100 % to 0 %). The 765-780 nm plateau of two
+  NIST Philips mercury spectra is a data artefact, cut before it by the
+  library (`bandopt.datasets.lamps.usable_range`).
 - **Incandescent**: Planck's law (`Planck1901`) with the temperature fitted to
   the lamp's own 600 nm-to-end shape, scaled to its last 20 nm.
 - **LED**: the phosphor tail continued as the exponential fitted to the last
@@ -38,7 +41,15 @@ measured to 900 nm (LI-1800 `Aphalo2023`, LSPDD `LSPDD2016`, photobiology
 measured lamps, so that it can be checked leave-one-out (`validate_extension`,
 published in `results/library/nir_validation.json`). LPS and mercury have one
 measured lamp each (calibrated in-sample, not validated); White SON (high-CRI
-HPS) has none (the library never flags it validated).
+HPS) has none (the library never flags it validated). `extension_error` gives
+the measured error of the extension per class from that check, and a stated
+bound where there is none.
+
+A spectrum cut below 780 nm (at most down to `CUT_MIN_NM`: truncated or
+contaminated data, see `bandopt.datasets.lamps.usable_range`) is continued by
+the same models from its cut: the LED and Planck tails from the cut, the line
+and continuum models with the visible power completed by the model's own
+part between the cut and 780 nm.
 """
 
 import dataclasses
@@ -52,8 +63,11 @@ from ..spectra import planck_radiance
 # The calibration spectra; the extension range and `technology_of` are defined
 # with them (they select and label them) and re-exported here.
 from ._lamp_sources import (
+    CUT_MIN_NM,
     EXTENSION_END_NM,
     EXTENSION_START_NM,
+    classes_with_measured_nir,
+    lspdd_enabled,
     measured_nir_spectra,
     technology_of as technology_of,
 )
@@ -109,6 +123,11 @@ VALIDATED = {
 """Technologies whose extension is validated leave-one-out against at least two
 measured lamps (`validate_extension`); the counts are in
 `results/library/nir_validation.json` and checked by `tests/test_nir.py`."""
+
+
+UPPER_BOUND = ("mercury",)
+"""Technologies whose extension is an upper bound, not a measurement: the one
+measured mercury lamp's 780-930 nm level equals its instrument floor."""
 
 
 def is_validated(technology: str | None) -> bool:
@@ -347,26 +366,36 @@ def extend_spectrum(
     exclude: tuple[str, ...] = (),
     lspdd: bool = True,
 ) -> np.ndarray:
-    """Model a spectrum at `new_wavelength_nm` (all > 780 nm and beyond the
-    measured end) from its measured part (which must reach 780 nm; the visible
-    power of the line models is its 380-780 nm integral).
+    """Model a spectrum at `new_wavelength_nm` (all beyond the measured end,
+    up to 900 nm) from its measured part, which must reach `CUT_MIN_NM`.
 
+    The visible power of the line and continuum models is the measured
+    380-780 nm integral; for a spectrum ending before 780 nm it is completed
+    by the model's own part between the end and 780 nm (the model is linear
+    in it: P = P_measured / (1 - model power per unit P over the gap)).
     `technology` is one of `TECHNOLOGIES` (see `technology_of`). `exclude` and
     `lspdd` select the calibration lamps (see `calibration`). [unit of `values`]
     """
     w = np.asarray(wavelength_nm, float)
     s = np.asarray(values, float)
     w_new = np.asarray(new_wavelength_nm, float)
-    if np.any(w_new <= EXTENSION_START_NM) or np.any(w_new > EXTENSION_END_NM):
-        raise ValueError("new_wavelength_nm must lie in (780, 900] nm.")
-    if w[-1] < EXTENSION_START_NM or np.any(w_new <= w[-1]):
+    if np.any(w_new > EXTENSION_END_NM):
+        raise ValueError("new_wavelength_nm must lie at or below 900 nm.")
+    if w[-1] < CUT_MIN_NM or np.any(w_new <= w[-1]):
         raise ValueError(
-            f"the measured spectrum ({w[0]:g}-{w[-1]:g} nm) must reach 780 nm and "
-            "end before new_wavelength_nm."
+            f"the measured spectrum ({w[0]:g}-{w[-1]:g} nm) must reach "
+            f"{CUT_MIN_NM:g} nm and end before new_wavelength_nm."
         )
     if technology in LINES_NM:
         cal = calibration(technology, tuple(exclude), lspdd)
-        return cal.evaluate(w_new, _visible_power(w, s))
+        p_vis = _visible_power(w, s)
+        end = float(w[-1])
+        if end < EXTENSION_START_NM:
+            gap = np.linspace(
+                end, EXTENSION_START_NM, 4 * int(EXTENSION_START_NM - end) + 2
+            )
+            p_vis /= 1.0 - float(np.trapezoid(cal.evaluate(gap, 1.0), gap))
+        return cal.evaluate(w_new, p_vis)
     if technology == "incandescent":
         return _extend_planck(w, s, w_new)
     if technology == "led":
@@ -439,3 +468,154 @@ def validate_extension(lspdd: bool = True) -> list[dict]:
             }
         )
     return rows
+
+
+ERROR_QUANTILES = (0.05, 0.95)
+"""The quantiles of the leave-one-out error that `extension_error` reports: a
+90 % range, the interval level of bandopt's estimates."""
+
+MIN_CLASS_LAMPS = 5
+"""A class with fewer validated lamps than this takes the error of its
+technology's pooled lamps: four points give no 5 % or 95 % quantile worth the
+name."""
+
+UPPER_BOUND_ERROR = (-1.0, 0.0)
+"""The error range of an upper-bound extension (`UPPER_BOUND`): the true
+near-infrared lies between none and the modelled level."""
+
+ERROR_BAND = "780-900"
+"""The `VALIDATION_BANDS_NM` band whose power `extension_error` is about."""
+
+
+@dataclasses.dataclass(frozen=True)
+class NirError:
+    """The relative error of the near-infrared extension's 780-900 nm band
+    power: measured / modelled - 1, so the true power is the modelled one times
+    (1 + e) with e in [`low`, `high`].
+
+    - `low`, `high`: the `ERROR_QUANTILES` (5 % and 95 %) of that error over
+      the lamps of `basis`, or a stated bound when there is no validation. [1]
+    - `n_lamps`: lamps the quantiles come from (0 for a stated bound).
+    - `validated`: the range comes from the leave-one-out validation.
+    - `basis`: where the range comes from, in words.
+    """
+
+    low: float
+    high: float
+    n_lamps: int
+    validated: bool
+    basis: str
+
+
+@functools.cache
+def _validated_errors(lspdd: bool) -> tuple[dict, dict]:
+    """Leave-one-out errors (measured / modelled - 1 of the `ERROR_BAND` power)
+    per level-2 class and per technology, each as (errors, number of lamps left
+    out because their extension is 0 there: the ratio is undefined)."""
+    by_class: dict[str, list] = {}
+    by_tech: dict[str, list] = {}
+    for row in validate_extension(lspdd):
+        if not row["leave_one_out"]:
+            continue
+        band = row["bands"][ERROR_BAND]
+        for d, key in ((by_class, row["level2"]), (by_tech, row["technology"])):
+            errors, zero = d.setdefault(key, [[], 0])
+            if band["extended"] > 0.0:
+                errors.append(band["measured"] / band["extended"] - 1.0)
+            else:
+                d[key][1] = zero + 1
+    pack = lambda d: {k: (np.array(e), z) for k, (e, z) in d.items()}  # noqa: E731
+    return pack(by_class), pack(by_tech)
+
+
+def _quantile_error(errors: np.ndarray, basis: str) -> NirError:
+    lo, hi = np.quantile(errors, ERROR_QUANTILES)
+    return NirError(float(lo), float(hi), int(errors.size), True, basis)
+
+
+def extension_error(
+    level2: str | None,
+    technology: str | None,
+    *,
+    subtype: str | None = None,
+    lspdd: bool | None = None,
+) -> NirError:
+    """The measured error of the near-infrared extension of a lamp of class
+    `level2` extended as `technology` (None: `technology_of(level2)`), as a
+    `NirError` on its 780-900 nm band power.
+
+    - a validated technology and a class with measured near-infrared: the 5 %
+      and 95 % quantiles of the leave-one-out error of the class's lamps
+      (`validate_extension`), or of the technology's pooled lamps when the
+      class has fewer than `MIN_CLASS_LAMPS`;
+    - an upper-bound technology (`UPPER_BOUND`, mercury): `UPPER_BOUND_ERROR`;
+    - anything else (LPS, calibrated on one lamp; White SON, `subtype`
+      "white_son"; classes without measured near-infrared; no technology):
+      not validated, and the envelope of the validated technologies' ranges
+      (the widest low and high among them): an unvalidated extension is taken
+      to be as wrong as the worst validated one.
+
+    Lamps whose extension is 0 in the band (the ratio is undefined) are left
+    out of the quantiles, and `basis` counts them. Computed from the
+    validation once per `lspdd` setting (a few seconds) and cached.
+    """
+    use_lspdd = lspdd_enabled(lspdd)
+    tech = technology if technology is not None else technology_of(level2)
+    by_class, by_tech = _validated_errors(use_lspdd)
+
+    def left_out(zero):
+        return (
+            f"; {zero} lamps whose extension is 0 in {ERROR_BAND} nm left out "
+            "(ratio undefined)"
+            if zero
+            else ""
+        )
+
+    if tech in UPPER_BOUND:
+        lo, hi = UPPER_BOUND_ERROR
+        return NirError(
+            lo,
+            hi,
+            0,
+            False,
+            f"{tech}: the extension is an upper bound (the one measured lamp's "
+            "780-930 nm level equals its instrument floor): the true power lies "
+            "between 0 and the modelled one",
+        )
+    reason = None
+    if tech is None:
+        reason = "no extension technology"
+    elif not is_validated(tech):
+        reason = f"{tech}: calibrated in-sample on a single measured lamp"
+    elif subtype == "white_son":
+        reason = (
+            "White SON (high-CRI HPS): no measured lamp; the HPS calibration "
+            "is standard HPS"
+        )
+    elif level2 is not None and level2 not in classes_with_measured_nir(use_lspdd):
+        reason = f"no measured near-infrared for class {level2}"
+    if reason is None:
+        errors, zero = by_class.get(level2, (np.array([]), 0))
+        if errors.size >= MIN_CLASS_LAMPS:
+            return _quantile_error(
+                errors,
+                f"leave-one-out validation of {level2} ({errors.size} lamps, "
+                f"{tech} extension, {ERROR_BAND} nm band power){left_out(zero)}",
+            )
+        few = errors.size
+        errors, zero = by_tech[tech]
+        return _quantile_error(
+            errors,
+            f"leave-one-out validation of the {tech} technology's pooled lamps "
+            f"({errors.size} lamps; class {level2} has {few} < {MIN_CLASS_LAMPS}; "
+            f"{ERROR_BAND} nm band power){left_out(zero)}",
+        )
+    ranges = [_quantile_error(e, "") for e, _ in by_tech.values()]
+    return NirError(
+        min(r.low for r in ranges),
+        max(r.high for r in ranges),
+        0,
+        False,
+        f"no leave-one-out validation ({reason}): the envelope of the validated "
+        f"technologies' 5-95 % ranges ({', '.join(sorted(by_tech))})",
+    )
