@@ -10,7 +10,7 @@ SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: run test test-slow lint bench atmospheres surfaces library lamp-models ler \
         g cct sweep compare classify classify-partitions radiometry spatial \
-        noise-aware estimate estimate-moon estimate-mix estimate-noise estimate-intervals estimate-shift estimate-planck estimate-defaults estimate-library estimate-tm30 estimate-bands external-tm30 unseen-ceiling \
+        noise-aware estimate estimate-moon estimate-mix estimate-noise estimate-intervals estimate-shift estimate-planck estimate-defaults estimate-library estimate-tm30 estimate-bands external-tm30 unseen-ceiling robustness \
         before-after report check-report docs tutorial clean
 
 $(STAMP): pyproject.toml requirements.lock
@@ -107,6 +107,9 @@ external-tm30: $(STAMP)  ## external check: bandopt evaluate, as a user runs it,
 
 unseen-ceiling: $(STAMP)  ## the level-1 family of unseen lamp types from bare lamp spectra (5-50 nm) and the recommended bands, classifiers trained on the other classes: the ceiling of issue 12's 90 % goal (under a minute)
 	$(BIN)/python -m experiments.unseen_ceiling $(ARGS)
+
+robustness: $(STAMP)  ## the shipped estimate on held-out lamps under measurement effects (background, noise, slit, shift, truncation, mixtures, a type left out of the prior), paired with the clean rows, our bands and SDGSAT-1 and Nightsat, 4 lamp partitions -> results/robustness (resumable: ARGS=--resume; ARGS=--quick for a short run)
+	nice $(BIN)/python -m experiments.robustness $(ARGS)
 
 classify: $(STAMP)  ## lamp-type classification (writes recommendation.json "classification")
 	$(BIN)/python -m experiments.classify

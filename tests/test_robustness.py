@@ -1,0 +1,165 @@
+"""bandopt.robustness on a tiny configuration: records, pairing, summary maths,
+resume, and the experiment's outputs."""
+
+import json
+
+import numpy as np
+import pytest
+
+from bandopt import robustness as rb
+from bandopt.calibration import expected_calibration_error
+from bandopt.evaluator import InversionConfig, fit_on_context
+from bandopt.folds import class_balanced_weights
+from bandopt.sensor.reference import resolve_band_set
+
+
+LIGHT = InversionConfig(
+    mixtures=0,
+    peak_shifts_nm=(),
+    planck=False,
+    calibration="lamps",
+    floor_grid=(1e-3,),
+    interval_offsets=(0.0,),
+)
+"""The shipped estimator without its slow extras (blends, shifted LEDs,
+Planck spectra, floor and offset grids): the test checks the study's
+bookkeeping, not the estimator."""
+
+STUDY = rb.RobustnessStudy(
+    band_sets=rb.BAND_SETS[:1],
+    perturbations=(
+        rb.Perturbation("clean"),
+        rb.Perturbation("mixture", 0.3),
+        rb.Perturbation("left-out"),
+    ),
+    partitions=1,
+    preset="tiny",
+    atmospheres="none",
+    lamps_per_class=2,
+    config=LIGHT,
+)
+"""One partition, one scene per lamp, two lamps per class, one spectral row."""
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    path = tmp_path_factory.mktemp("robustness") / "records.jsonl"
+    records = rb.run_study(STUDY, path)
+    return path, records, rb.summarise(records, STUDY)
+
+
+def test_records_have_their_fields_and_are_paired(run):
+    _, records, _ = run
+    part = rb.partition(STUDY, 0)
+    labels = [p.label for p in STUDY.perturbations]
+    assert [r["perturbation"] for r in records[:: len(part.test)]] == labels
+    lamps = {
+        lab: [r["lamp"] for r in records if r["perturbation"] == lab] for lab in labels
+    }
+    ids = rb.inv_mod.context_setup(part.ctx)[0].ids
+    assert all(v == [ids[i] for i in part.test] for v in lamps.values())
+    for r in records:
+        assert {"partition", "band_set", "kind", "value", "lamp", "level1", "level2",
+                "rows", "out_of_range", "truth", "truth_clean", "level1_correct",
+                "level2_correct", "unexplained", "LER", "G", "LER_covered",
+                "LER_width_median", "level1_confidence",
+                "level1_top_right"} <= set(r)  # fmt: skip
+        assert r["rows"] == len(r["level1_confidence"]) == len(r["level1_top_right"])
+        assert r["out_of_range"] == 0
+    clean = [r for r in records if r["kind"] == "clean"]
+    assert all(r["truth"][:2] == r["truth_clean"][:2] for r in clean)
+    train_ids = {ids[i] for i in part.train}
+    for r in records:
+        if r["kind"] == "mixture":
+            assert r["other_lamp"] in train_ids
+            other = part.ctx.table.classes[ids.index(r["other_lamp"])]
+            assert other != r["level2"]
+        if r["kind"] == "left-out":
+            assert r["held_out_class"] == r["level2"]
+            assert r["level2_correct"] == 0.0  # its class is not in the prior
+
+
+def test_clean_rows_and_their_scenes_are_the_contexts(run):
+    """The perturbed rows' path (spectra lit under the context's scenes) gives
+    the context's own TOA for unperturbed spectra: the pairing is exact."""
+    part = rb.partition(STUDY, 0)
+    lamps = rb.inv_mod.context_setup(part.ctx)[0]
+    toa = rb.scene_spectra(part.ctx, lamps.spectra[part.test])
+    np.testing.assert_allclose(toa, part.ctx.toa[part.test], rtol=1e-6)
+
+
+def test_summary_maths(run):
+    _, records, summary = run
+    json.dumps(summary, allow_nan=False)  # strict JSON
+    rows = {r["perturbation"]: r for r in summary["rows"]}
+    for label, row in rows.items():
+        recs = [r for r in records if r["perturbation"] == label]
+        w = class_balanced_weights(np.asarray([r["level2"] for r in recs], object))
+        for col in ("level1_correct", "LER", "unexplained"):
+            v = np.asarray([r[col] for r in recs], float)
+            assert row[col] == pytest.approx(np.sum(w * v))
+        pix = np.concatenate([np.full(r["rows"], wi / r["rows"]) for r, wi in
+                              zip(recs, w, strict=True)])  # fmt: skip
+        conf = np.concatenate([r["level1_confidence"] for r in recs])
+        right = np.concatenate([r["level1_top_right"] for r in recs]).astype(bool)
+        assert row["ECE"] == pytest.approx(expected_calibration_error(conf, right, pix))
+        lo = min(r["LER_width_median"] for r in recs)
+        hi = max(r["LER_width_median"] for r in recs)
+        assert lo <= row["LER_width_median"] <= hi
+    for d in summary["paired"]:
+        r, c = rows[d["perturbation"]], rows["clean"]
+        for col in ("level1_correct", "LER", "ECE"):
+            assert d[f"{col}_diff"] == pytest.approx(r[col] - c[col])
+    assert set(summary["reliability"]["recommended"]) == {"clean", "perturbed"}
+
+
+def test_resume_keeps_finished_units(run, tmp_path):
+    path, records, _ = run
+    copy = tmp_path / "records.jsonl"
+    copy.write_text(path.read_text() + '{"broken')
+    kept, done = rb.load_records(copy, STUDY, resume=True)
+    assert done == {(0, "recommended")} and len(kept) == len(records)
+    assert rb.run_study(STUDY, copy, resume=True) == kept  # nothing recomputed
+    fewer = rb.RobustnessStudy(
+        band_sets=STUDY.band_sets, perturbations=STUDY.perturbations[:1]
+    )
+    kept, _ = rb.load_records(copy, fewer, resume=True)
+    assert {r["perturbation"] for r in kept} == {"clean"}
+    assert rb.load_records(copy, STUDY, resume=False) == ([], set())
+    assert not copy.exists()
+
+
+def test_masking_a_class_removes_it_from_the_answer():
+    part = rb.partition(STUDY, 0)
+    bands = resolve_band_set(rb.BAND_SETS[0][1]).bands
+    inv = fit_on_context(
+        part.ctx, bands, LIGHT, train_lamps=part.train.tolist(), inner=list(part.inner)
+    )
+    masked = rb.without_class(inv, "hps")
+    res = masked.predict(part.ctx.radiance(bands)[:50])
+    j = list(res.level2_labels).index("hps")
+    assert np.all(res.level2_probabilities[:, j] == 0.0)
+    assert "hps" not in res.level2
+
+
+def test_study_options_are_checked():
+    with pytest.raises(ValueError, match="clean"):
+        rb.RobustnessStudy(perturbations=(rb.Perturbation("noise", 30.0),))
+    with pytest.raises(ValueError, match="background-flat"):
+        rb.Perturbation("background", 0.01)
+    assert rb.Perturbation("Background_Flat", 0.01).label == "flat background 1 %"
+    labels = [p.label for p in rb.STUDY_PERTURBATIONS]
+    assert len(set(labels)) == len(labels) == 19
+    assert rb.STUDY_PERTURBATIONS[-1].kind == "truncation"
+
+
+def test_experiment_writes_its_outputs(run, tmp_path):
+    from experiments.robustness import write_outputs
+
+    _, _, summary = run
+    write_outputs(summary, STUDY, tmp_path)
+    for name in ("summary.json", "robustness.png", "README.md", "manifest.json"):
+        assert (tmp_path / name).is_file(), name
+    text = (tmp_path / "README.md").read_text()
+    assert "| recommended | 30 % other lamp |" in text
+    assert "nan" not in text.lower().replace("n/a", "")
