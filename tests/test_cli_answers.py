@@ -133,19 +133,25 @@ def test_simulate_help_says_noisy_radiance_can_be_negative(capsys):
 
 
 def test_amber_led_cut_at_780_gets_no_sodium_lines(tmp_path):
-    """A direct amber LED (589 nm, 12 nm wide) cut at 780 nm resembles the
-    library's LPS spectrum most (the former rule added the Na 819 nm doublet);
-    it is one emission band >= 10 nm wide, hence an LED: no lines."""
+    """A direct amber LED (589 nm, 15 nm wide: the narrowest measured amber
+    LED is 14 nm) cut at 780 nm resembles the library's LPS spectrum most (the
+    nearest-lamp rule added the Na 819 nm doublet); its band is wider than
+    LPS's at any resolution up to 10 nm, hence an LED: no lines. A 12 nm band
+    could be LPS read at 10 nm resolution: both candidates are extended."""
     from bandopt.cli._cmd_evaluate import load_user_lamp
     from bandopt.spectra import GRID_1NM
 
     w = np.arange(380.0, 781.0)
-    s = np.exp(-0.5 * ((w - 589.0) / (12.0 / 2.3548)) ** 2)
-    values, note = load_user_lamp(_write_csv(tmp_path / "amber.csv", w, s))
+    s = np.exp(-0.5 * ((w - 589.0) / (15.0 / 2.3548)) ** 2)
+    (values,), note = load_user_lamp(_write_csv(tmp_path / "amber.csv", w, s))
     assert note["nir_extension"] == "led"
     grid = np.asarray(GRID_1NM)
     na = (grid >= 815) & (grid <= 823)
     assert values[na].max() < 1e-6 * values.max()  # no 819 nm doublet
+    s12 = np.exp(-0.5 * ((w - 589.0) / (12.0 / 2.3548)) ** 2)
+    rows, note = load_user_lamp(_write_csv(tmp_path / "amber12.csv", w, s12))
+    assert set(note["candidates"]) == {"lps", "led"} and len(rows) == 2
+    assert "union over the candidates" in note["estimate_policy"]
 
 
 def test_single_band_rule_matches_the_library():
@@ -163,11 +169,7 @@ def test_single_band_rule_matches_the_library():
         if nir.is_single_band_emitter(w[vis], v[vis])
     ]
     assert hits and set(hits) == {"led"}
-    lps = [
-        v
-        for r, v in zip(lib.records, lib.values, strict=True)
-        if r.level2 == "lps"
-    ]
+    lps = [v for r, v in zip(lib.records, lib.values, strict=True) if r.level2 == "lps"]
     assert lps and not any(nir.is_single_band_emitter(w[vis], v[vis]) for v in lps)
 
 

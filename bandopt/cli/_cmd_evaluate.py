@@ -12,12 +12,20 @@ SCENE = {
     "view_zenith_deg": 0.0,
 }
 NIR_POLICY = (
-    "A spectrum must cover 380-780 nm. If it ends before 900 nm it is extended to "
-    "900 nm "
-    "with bandopt.datasets.nir.extend_spectrum, using the technology of its nearest "
-    "library lamp (smallest RMS difference of the peak-normalised 380-780 nm spectra); "
-    "the technology used is listed in notes. Resampling to the 1 nm library grid is "
-    "linear."
+    "A spectrum must cover 380-780 nm. Every measured value is kept; beyond the "
+    "measured end (if before 900 nm) it is extended to 900 nm as --nir says "
+    "(bandopt.datasets.technology.extend_user_spectrum). auto (default): by the "
+    "technology its visible spectrum shows (Hg 405/436/546/578 nm lines, Na 589 "
+    "nm core or broadened band, Na 498/819 nm, Eu 611 nm, Tl 535 nm and other "
+    "metal halide lines, blue pump and broad phosphor, smooth Planck-like "
+    "continuum), with the NIR model of bandopt.datasets.nir; when two or more "
+    "technologies score within a factor 2, one extension per candidate: the "
+    "estimator runs on each, the estimate is the most likely candidate's, every "
+    "90 % interval is the union over candidates and the level-1 probabilities "
+    "are the candidates' average. A technology name forces its model, none "
+    "puts zeros beyond the measured end, a FILE gives your own NIR (same unit). "
+    "notes say, per lamp, the technology used, its evidence and the candidates. "
+    "Resampling to the 1 nm library grid is linear."
 )
 
 
@@ -48,6 +56,17 @@ def register(subparsers):
         metavar="FILE",
         help="lamp spectrum files (.csv/.txt/.dat two columns, .prn, .xml/.spdx)",
         split_commas=False,
+    )
+    p.add_argument(
+        "--nir",
+        default="auto",
+        metavar="TECHNOLOGY|none|auto|FILE",
+        help="near-infrared beyond a spectrum's measured end (when it ends "
+        "before 900 nm): auto (default: the technology of its spectral "
+        "features; every candidate when they are ambiguous), a technology ("
+        "hps, lps, metal_halide, mercury, fluorescent, incandescent, led), none "
+        "(zeros) or a two-column FILE with your own NIR, in the unit of the "
+        "spectra, covering their measured end to 900 nm",
     )
     p.add_argument(
         "--estimator",
@@ -246,38 +265,27 @@ def read_reflectance(path, grid):
     return np.interp(grid, w, r)
 
 
-def _nearest_technology(w, s):
-    import numpy as np
+def check_nir(value: str) -> None:
+    """Refuse a `--nir` value that is neither a choice nor a file (before
+    anything trains); the error names the option."""
+    from pathlib import Path
 
-    from ..datasets import nir
-    from ..datasets.lamps import library
+    from ..datasets.technology import NIR_CHOICES
 
-    lib = library(extend_nir=False)
-    vis = (lib.wavelength_nm >= 380) & (lib.wavelength_nm <= 780)
-    mine = np.interp(lib.wavelength_nm[vis], w, s)
-    mine = mine / mine.max()
-    if nir.is_single_band_emitter(lib.wavelength_nm[vis], mine):
-        return "led", None  # no discharge lines for an LED-like single band
-    best, tech = np.inf, None
-    for rec, v in zip(lib.records, lib.values, strict=True):
-        t = nir.technology_of(rec.level2, rec.level1)
-        if t is None or rec.modelled:
-            continue
-        ref = v[vis] / np.nanmax(v[vis])
-        d = float(np.sqrt(np.nanmean((ref - mine) ** 2)))
-        if d < best:
-            best, tech = d, (t, rec.id)
-    return tech
+    if value not in NIR_CHOICES and not Path(value).is_file():
+        raise ValueError(
+            f"--nir {value!r}: neither a file nor one of {', '.join(NIR_CHOICES)}."
+        )
 
 
-def load_user_lamp(path):
+def load_user_lamp(path, nir="auto"):
     """Read, check, extend (policy above) and resample a user spectrum to the
-    library grid. Returns (values on GRID_1NM, note or None)."""
+    library grid. Returns (values on GRID_1NM, one row per NIR candidate,
+    most likely first; note or None)."""
     import numpy as np
 
-    from ..datasets import nir
     from ..datasets.loaders import read_spectrum
-    from ..spectra import GRID_1NM
+    from ..datasets.technology import extend_user_spectrum
 
     sp = read_spectrum(path)
     w, s = np.asarray(sp.wavelength_nm, float), np.asarray(sp.values, float)
@@ -285,23 +293,42 @@ def load_user_lamp(path):
         raise ValueError(
             f"{path}: spectrum covers {w[0]:g}-{w[-1]:g} nm; need 380-780 nm."
         )
-    grid = np.asarray(GRID_1NM, float)
-    note = None
-    if w[-1] < grid[-1]:
-        tech, ref = _nearest_technology(w, s)
-        new = grid[grid > max(w[-1], 780.0)]
-        keep = w <= 780.0
-        ext = nir.extend_spectrum(w[keep], s[keep], tech, new[new > 780.0])
-        w = np.concatenate([w[w <= new[0] - 1e-9], new])
-        s = np.concatenate([s[: w.size - new.size], ext])
-        note = {
-            "file": str(path),
-            "nir_extension": tech,
-            "nearest_library_lamp": ref
-            or "none: one emission band >= 10 nm wide, an LED (no lines added)",
-            "measured_to_nm": float(sp.wavelength_nm[-1]),
-        }
-    return np.interp(grid, w, s), note
+    try:
+        ext = extend_user_spectrum(w, s, nir)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"--nir {nir!s} for {path}: {exc}") from None
+    note = None if ext.note is None else {"file": str(path), **ext.note}
+    if ext.ambiguous:
+        note["candidates"] = list(ext.technologies)
+        note["estimate_policy"] = (
+            "the estimator ran on every candidate extension: the estimate is the "
+            "most likely candidate's, every 90 % interval the union over the "
+            "candidates, the level-1 probabilities the candidates' average"
+        )
+    return ext.spectra, note
+
+
+def merge_candidates(rows: list[dict]) -> dict:
+    """One lamp's result from its candidate extensions' rows (most likely
+    first): that row, every 90 % interval widened to the union over the
+    candidates, the level-1 probabilities averaged (the type from the
+    average)."""
+    out = dict(rows[0])
+    if len(rows) == 1:
+        return out
+    out["interval90"] = {}
+    for m, iv in (rows[0]["interval90"] or {}).items():
+        ivs = [(r["interval90"] or {}).get(m) for r in rows]
+        ivs = [x for x in ivs if x is not None]
+        out["interval90"][m] = (
+            [min(x[0] for x in ivs), max(x[1] for x in ivs)] if iv else iv
+        )
+    probs = [r.get("level1_probabilities") for r in rows]
+    if all(probs):
+        avg = {k: sum(p[k] for p in probs) / len(probs) for k in probs[0]}
+        out["level1_probabilities"] = avg
+        out["predicted_level1"] = max(avg, key=avg.get)
+    return out
 
 
 def _surface(args, grid):
@@ -730,13 +757,14 @@ def run(args) -> int:
         except ValueError as exc:
             raise ValueError(f"--bands {args.bands}: {exc}") from None
     warnings = band_set_warnings(bands, args.bands, log=sys.stderr)
-    lamps = [load_user_lamp(p) for p in args.lamps]  # errors before training
+    check_nir(args.nir)
+    lamps = [load_user_lamp(p, args.nir) for p in args.lamps]  # before training
     prior_files = parse_prior_lamps(args.prior_lamps)
-    prior_loaded = [load_user_lamp(p) for _, p in prior_files]
+    prior_loaded = [load_user_lamp(p, args.nir) for _, p in prior_files]
     args.own_lamps = (
         (
             prior_lamp_names([p for _, p in prior_files]),
-            np.array([v for v, _ in prior_loaded]),
+            np.array([v[0] for v, _ in prior_loaded]),  # the most likely NIR
             [c for c, _ in prior_files],
         )
         if prior_files
@@ -751,16 +779,18 @@ def run(args) -> int:
     wts = np.asarray(band_weights(jnp.asarray(resp), jnp.asarray(grid)))
     vis = (grid >= 380) & (grid <= 780)
 
-    truths, notes, band_rad = [], [], []
-    for _path, (values, note) in zip(args.lamps, lamps, strict=True):
+    truths, notes, band_rad, owner = [], [], [], []
+    for k, (candidates, note) in enumerate(lamps):
+        values = candidates[0]  # the truth is visible-only: any candidate
         truth, valid = lamp_truth(values[None], grid)
         # lumens ∝ K_m ∫ V S dλ = LER · ∫ S dλ (380-780 nm)
         lumens = float(ler_fn(values[None, vis], grid[vis])[0]) * float(
             np.trapezoid(values[vis], grid[vis])
         )
-        per_lx = values / lumens  # spectral irradiance per lux [W m-2 nm-1 lx-1]
-        toa = e_lx * refl / math.pi * per_lx
-        band_rad.append(wts @ toa)
+        for cand in candidates:  # one row per NIR candidate, most likely first
+            per_lx = cand / lumens  # spectral irradiance per lux [W m-2 nm-1 lx-1]
+            band_rad.append(wts @ (e_lx * refl / math.pi * per_lx))
+            owner.append(k)
         truths.append(
             {
                 m: (float(truth[0, i]) if valid[0, i] else None)
@@ -796,6 +826,11 @@ def run(args) -> int:
             level1, level2 = predict_lamp_types(band_rad, bands)
             for r, l1, l2 in zip(est_rows, level1, level2, strict=True):
                 r["predicted_level1"], r["predicted_level2"] = l1, l2
+    owner = np.asarray(owner)
+    est_rows = [
+        merge_candidates([est_rows[i] for i in np.flatnonzero(owner == k)])
+        for k in range(len(lamps))
+    ]
     rows = []
     for path, t, r in zip(args.lamps, truths, est_rows, strict=True):
         rows.append(
@@ -884,9 +919,10 @@ def run(args) -> int:
             + f"; type {r['predicted_level2'] or r['predicted_level1']}{flag}"
         )
     for n in notes:
+        ev = "; ".join(n["identification"]["evidence"][:3])
         print(
-            f"note: {n['file']} extended beyond {n['measured_to_nm']:g} nm as "
-            f"{n['nir_extension']} (nearest library lamp {n['nearest_library_lamp']})"
+            f"note: {n['file']} measured to {n['measured_to_nm']:g} nm: "
+            f"{n['policy']} ({ev})"
         )
     return 0
 

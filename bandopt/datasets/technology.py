@@ -38,7 +38,6 @@ from scipy.signal import find_peaks, peak_widths
 from ..names import CanonicalMapping
 from ..spectra import GRID_1NM, planck_radiance
 from . import nir as nir_models
-from .loaders import read_spectrum
 
 
 VISIBLE_NM = (380.0, 780.0)
@@ -455,7 +454,7 @@ def technology_scores(f: SpectralFeatures) -> dict[str, float]:
     hg = sorted(hg_each)[1]  # two of the three lines (an LED's violet pump at
     # 405 nm or its blue pump at 436 nm is at most one)
     yellow = h["Hg 578"] / max(h["Hg 546"], PROMINENCE_GUARD)
-    single = _below(len(f.narrow_peaks), LED_MAX_NARROW_PEAKS)
+    single = _below(float(len(f.narrow_peaks)), LED_MAX_NARROW_PEAKS)
     lps = _above(f.na_core_fraction, LPS_MIN_CORE_FRACTION) * _below(
         f.main_fwhm_nm, LPS_MAX_FWHM_NM
     )
@@ -475,7 +474,7 @@ def technology_scores(f: SpectralFeatures) -> dict[str, float]:
         * _below(f.blue_fraction, INCANDESCENT_MAX_BLUE_FRACTION)
         * _below(f.line_fraction, MAX_LINE_FRACTION_SMOOTH)
     )
-    mh_lines = _above(len(f.other_lines), MH_MIN_OTHER_LINES)
+    mh_lines = _above(float(len(f.other_lines)), MH_MIN_OTHER_LINES)
     metal_halide = (
         _above(f.blue_fraction, HPS_MAX_BLUE_FRACTION)
         * (1.0 - lps)
@@ -604,8 +603,21 @@ def _user_nir(nir_option, end_nm: float):
     """(wavelength, values) of the user's own NIR: an array pair or a file;
     must cover from the measured end to 900 nm."""
     if isinstance(nir_option, str | Path):
-        sp = read_spectrum(nir_option)
-        w, v, label = sp.wavelength_nm, sp.values, str(nir_option)
+        label = str(nir_option)
+        try:  # two columns; comma-separated for .csv, whitespace otherwise
+            data = np.loadtxt(
+                nir_option,
+                delimiter="," if label.lower().endswith(".csv") else None,
+                comments="#",
+                ndmin=2,
+            )
+        except (OSError, ValueError) as exc:
+            raise ValueError(
+                f"nir {label}: cannot read a two-column table ({exc})"
+            ) from None
+        if data.shape[1] < 2:
+            raise ValueError(f"nir {label}: need 'wavelength_nm value' columns.")
+        w, v = data[:, 0], data[:, 1]
     else:
         try:
             w, v = nir_option
