@@ -82,7 +82,7 @@ from . import lampmodels
 from .calibration import expected_calibration_error, fit_temperature, temper
 from .datasets import surfaces as surf_mod
 from .datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT, library
-from .datasets.nir import is_single_band_emitter, technology_of
+from .datasets.nir import extension_error, is_single_band_emitter, technology_of
 from .estimate import (
     CCT_RANGE_K,
     METRICS,
@@ -1113,9 +1113,6 @@ def nir_variants(lamps: "LampSet", wavelength_nm) -> "LampSet":
     lamp. Their visible part is the lamp's, so their LER, G and CCT are too.
     Ids `nir-low:<id>`, `nir-high:<id>`; `lamp_prior` splits a lamp's mass
     over it and its variants."""
-    # not at the top: the measured error table is built on first use
-    from .datasets.nir import extension_error
-
     wl = np.asarray(wavelength_nm, float)
     recs = {r.id: r for r in library().records}
     rows, ids, l1, l2 = [], [], [], []
@@ -2086,6 +2083,8 @@ def _global_probabilities(post, prior: LampPrior):
     priors that lack some classes line up (a class the prior lacks: 0)."""
     m1 = np.array([[c == x for x in LEVEL1] for c in prior.level1], float)
     m2 = np.array([[c == x for x in GLOBAL_LEVEL2] for c in prior.level2], float)
+    tot = np.sum(post, axis=1, keepdims=True)  # 1 to the scoring's precision
+    post = post / np.where(tot > 0, tot, 1.0)
     return post @ m1, post @ m2
 
 

@@ -110,3 +110,29 @@ def test_variants_share_their_lamps_prior_mass():
     np.testing.assert_allclose(w, [1 / 12, 1 / 12, 1 / 12, 1 / 4, 1 / 2])
     assert inv_mod.variant_base("nir-high:a") == "a"
     assert inv_mod.variant_base("mix:a+b@0.5") == "mix:a+b@0.5"
+
+
+def test_nir_variants_scale_only_the_modelled_part():
+    from bandopt.datasets.lamps import library
+    from bandopt.datasets.nir import extension_error, technology_of
+
+    lamps = inv_mod.library_lamps(GRID, scored=True)
+    recs = {r.id: r for r in library().records}
+    ext = [i for i, x in enumerate(lamps.ids) if recs[x].extended][:3]
+    meas = [i for i, x in enumerate(lamps.ids) if recs[x].nir_measured][:2]
+    sub = lamps.take(ext + meas)
+    var = inv_mod.nir_variants(sub, GRID)
+    assert len(var.ids) == 2 * len(ext)  # measured NIR: no variants
+    for j, i in enumerate(ext):
+        rec = recs[lamps.ids[i]]
+        err = extension_error(rec.level2, technology_of(rec.level2, rec.level1))
+        beyond = GRID > max(rec.measured_range_nm[1], 780.0)
+        for k, f in enumerate((err.low, err.high)):
+            row = var.spectra[2 * j + k]
+            assert var.ids[2 * j + k].endswith(":" + lamps.ids[i])
+            np.testing.assert_allclose(
+                row[~beyond], lamps.spectra[i][~beyond], rtol=1e-9
+            )
+            np.testing.assert_allclose(
+                row[beyond], max(1 + f, 0) * lamps.spectra[i][beyond], rtol=1e-9
+            )
