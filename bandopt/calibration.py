@@ -16,7 +16,7 @@ missing from the prior): their log likelihood is -inf at every `T`.
 import dataclasses
 
 import numpy as np
-from scipy.optimize import minimize_scalar
+from scipy.optimize import minimize, minimize_scalar
 
 
 ECE_BINS = 10
@@ -79,15 +79,16 @@ def expected_calibration_error(
     return float(np.sum(share[used] * np.abs(a[used] - c[used])))
 
 
-def temper(probabilities, temperature: float) -> np.ndarray:
-    """Probabilities `(n, C)` with their logs divided by `temperature` and
-    renormalised: `p^(1/T) / Σ p^(1/T)`. T > 1 softens, T < 1 sharpens,
-    T = 1 returns them unchanged (to rounding); the order of the classes
-    never changes."""
+def temper(probabilities, temperature) -> np.ndarray:
+    """Probabilities `(n, C)` with their logs divided by `temperature` (a
+    scalar or one per row, (n,)) and renormalised: `p^(1/T) / Σ p^(1/T)`.
+    T > 1 softens, T < 1 sharpens, T = 1 returns them unchanged (to
+    rounding); the order of the classes never changes."""
     p = np.asarray(probabilities, float)
-    t = float(temperature)
-    if not np.isfinite(t) or t <= 0:
-        raise ValueError(f"temperature {temperature!r}: need a finite value > 0.")
+    t = np.asarray(temperature, float)
+    if not np.all(np.isfinite(t)) or np.any(t <= 0):
+        raise ValueError(f"temperature {temperature!r}: need finite values > 0.")
+    t = t[..., None] if t.ndim else t
     logp = np.log(np.maximum(p, PROBABILITY_FLOOR)) / t
     logp = np.where(p > 0, logp, -np.inf)  # a class the prior lacks stays at 0
     top = np.max(logp, axis=-1, keepdims=True)
@@ -97,19 +98,39 @@ def temper(probabilities, temperature: float) -> np.ndarray:
     return e / np.where(s > 0, s, 1.0)
 
 
+MISFIT_FLOOR = 1e-3
+"""Misfits below this are taken at it in `Temperature.at`: a perfect fit is
+no reason for unbounded confidence (and the log stays finite)."""
+
+SLOPE_BOUNDS = (0.0, 2.0)
+"""Bounds of the temperature's slope in log misfit: never negative (a pixel
+the prior explains worse is never answered more surely), at most 2 (T grows
+at most as the squared misfit)."""
+
+
 @dataclasses.dataclass(frozen=True)
 class Temperature:
-    """A fitted temperature with what it was fitted on: the rows, the weighted
-    Brier score and top-class ECE before and after, and whether
-    the optimum sits on `TEMPERATURE_BOUNDS`."""
+    """A fitted temperature `T = value · max(misfit, MISFIT_FLOOR)^slope`
+    (slope 0: one temperature for all rows) with what it was fitted on: the
+    rows, the weighted Brier score and top-class ECE before and after, and
+    whether `value` sits on `TEMPERATURE_BOUNDS`."""
 
     value: float
+    slope: float
     n_rows: int
     brier_before: float
     brier_after: float
     ece_before: float
     ece_after: float
     at_bound: bool
+
+    def at(self, misfit=None):
+        """The temperature of rows with reduced χ² `misfit` (n,) (None: the
+        value at misfit 1)."""
+        if misfit is None:
+            return self.value
+        m = np.maximum(np.asarray(misfit, float), MISFIT_FLOOR)
+        return self.value * m**self.slope
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -126,11 +147,16 @@ def brier_score(probabilities, labels, weights=None) -> float:
     return float(np.sum(w * per) / w.sum())
 
 
-def fit_temperature(probabilities, labels, weights=None) -> Temperature:
+def fit_temperature(probabilities, labels, weights=None, misfit=None) -> Temperature:
     """The temperature minimising the weighted Brier score of the true classes
     `labels (n,)` (column indices into `probabilities (n, C)`; -1: a class the
-    classifier does not have, always wrong) over `TEMPERATURE_BOUNDS`
-    (bounded Brent search on log T, scipy)."""
+    classifier does not have, always wrong).
+
+    Without `misfit`: one temperature, bounded Brent search on log T over
+    `TEMPERATURE_BOUNDS` (scipy). With `misfit` (n,), each row's reduced χ²:
+    `log T = log value + slope · log max(misfit, MISFIT_FLOOR)`, both fitted
+    (L-BFGS-B within the bounds, scipy), so a pixel the prior explains badly,
+    as a lamp of a type it lacks often is, is answered less surely."""
     p = np.asarray(probabilities, float)
     y = np.asarray(labels, int)
     if p.ndim != 2 or y.shape != (p.shape[0],) or p.shape[0] == 0:
@@ -147,16 +173,27 @@ def fit_temperature(probabilities, labels, weights=None) -> Temperature:
         method="bounded",
         options={"xatol": 1e-4},
     )
-    t = float(np.exp(res.x))
-    conf0 = p.max(axis=1)
+    log_t, slope = float(res.x), 0.0
+    if misfit is not None:  # from the best single temperature
+        m = np.asarray(misfit, float)
+        if m.shape != y.shape or np.any(~np.isfinite(m)) or np.any(m < 0):
+            raise ValueError("misfit: need one finite value >= 0 per row.")
+        lm = np.log(np.maximum(m, MISFIT_FLOOR))
+        res = minimize(
+            lambda th: brier_score(temper(p, np.exp(th[0] + th[1] * lm)), y, w),
+            x0=np.array([log_t, 0.0]),
+            method="L-BFGS-B",
+            bounds=[(lo, hi), SLOPE_BOUNDS],
+        )
+        log_t, slope = float(res.x[0]), float(res.x[1])
+    fit = Temperature(float(np.exp(log_t)), slope, int(y.size), *(0.0,) * 4, False)
+    t = fit.at(misfit)
     right = p.argmax(axis=1) == y
-    conf1 = temper(p, t).max(axis=1)
-    return Temperature(
-        value=t,
-        n_rows=int(y.size),
+    return dataclasses.replace(
+        fit,
         brier_before=brier_score(p, y, w),
         brier_after=brier_score(temper(p, t), y, w),
-        ece_before=expected_calibration_error(conf0, right, w),
-        ece_after=expected_calibration_error(conf1, right, w),
-        at_bound=bool(min(abs(res.x - lo), abs(res.x - hi)) < 1e-3),
+        ece_before=expected_calibration_error(p.max(axis=1), right, w),
+        ece_after=expected_calibration_error(temper(p, t).max(axis=1), right, w),
+        at_bound=bool(min(abs(log_t - lo), abs(log_t - hi)) < 1e-3),
     )

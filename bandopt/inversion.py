@@ -79,7 +79,12 @@ import numpy as np
 from jax.scipy.special import logsumexp
 
 from . import lampmodels
-from .calibration import expected_calibration_error, fit_temperature, temper
+from .calibration import (
+    MISFIT_FLOOR,
+    expected_calibration_error,
+    fit_temperature,
+    temper,
+)
 from .datasets import surfaces as surf_mod
 from .datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT, library
 from .datasets.nir import extension_error, is_single_band_emitter, technology_of
@@ -231,9 +236,7 @@ class Conditions:
             moon,
             path,
             tuple(scen.atmosphere_labels),
-            None
-            if f.t_dir is None
-            else np.asarray(f.emission_transmittance(), float),
+            None if f.t_dir is None else np.asarray(f.emission_transmittance(), float),
         )
 
     @classmethod
@@ -638,8 +641,8 @@ def log_evidence(log_norm, y, sigmas, floors=None) -> np.ndarray:
     )
     sd = sig[None, :, None] * yn[:, None, :] + fl[None, :, None]  # (n, S, b)
     b = y.shape[1]
-    return np.asarray(log_norm) - np.log(sd).sum(axis=-1) - 0.5 * b * math.log(
-        2 * math.pi
+    return (
+        np.asarray(log_norm) - np.log(sd).sum(axis=-1) - 0.5 * b * math.log(2 * math.pi)
     )
 
 
@@ -1082,9 +1085,7 @@ def shifted_lamps(
     idx = direct_emitters(lamps, wl) if sh else np.zeros(0, int)
     if idx.size == 0:
         return LampSet((), np.zeros((0, lamps.spectra.shape[1])), (), ())
-    rows = np.array(
-        [np.interp(wl - d, wl, lamps.spectra[i]) for i in idx for d in sh]
-    )
+    rows = np.array([np.interp(wl - d, wl, lamps.spectra[i]) for i in idx for d in sh])
     vis = wl <= 780.0
     lum = np.asarray(ler(rows, wl)) * np.trapezoid(rows[:, vis], wl[vis], axis=1)
     rows = rows / lum[:, None]
@@ -1294,10 +1295,7 @@ def modelled_lamps(
         members = [
             r.id
             for r in lib.records
-            if r.level2 == c
-            and not r.modelled
-            and r.excluded is None
-            and r.id in train
+            if r.level2 == c and not r.modelled and r.excluded is None and r.id in train
         ]
         if len(members) < MIN_CALIBRATION_LAMPS:
             skipped[c] = len(members)
@@ -1439,6 +1437,7 @@ class Inversion:
     interval_offset: tuple[float, ...] = ()
     level1_temperature: float = 1.0
     level2_temperature: float = 1.0
+    temperature_slope: tuple[float, float] = (0.0, 0.0)
 
     @property
     def offsets(self) -> np.ndarray:
@@ -1677,10 +1676,12 @@ def _result(inv: Inversion, post, misfit, by_metric=None) -> InversionResult:
     l1 = [c for c in LEVEL1 if c in parents]
     p1 = p2 @ np.array([[p == c for c in l1] for p in parents], float)
     if inv.level1_temperature != 1.0 or inv.level2_temperature != 1.0:
-        # calibrated (fit_inversion(calibrate_probabilities=True)); tempering
-        # keeps each row's order, so the predicted types do not change
-        p1 = temper(p1, inv.level1_temperature)
-        p2 = temper(p2, inv.level2_temperature)
+        # calibrated (fit_inversion(calibrate_probabilities=True)): each
+        # pixel's temperature grows with its misfit; tempering keeps each
+        # row's order, so the predicted types do not change
+        m = np.maximum(np.asarray(misfit, float), MISFIT_FLOOR)
+        p1 = temper(p1, inv.level1_temperature * m ** inv.temperature_slope[0])
+        p2 = temper(p2, inv.level2_temperature * m ** inv.temperature_slope[1])
     parent_idx = np.array([l1.index(p) for p in parents])
     i1 = np.argmax(p1, axis=1)
     inside = parent_idx[None, :] == i1[:, None]
@@ -1825,13 +1826,9 @@ def fit_inversion(
             f"calibration {calibration!r}: expected one of {CALIBRATIONS}."
         )
     if sigma_rule not in SIGMA_RULES:
-        raise ValueError(
-            f"sigma_rule {sigma_rule!r}: expected one of {SIGMA_RULES}."
-        )
+        raise ValueError(f"sigma_rule {sigma_rule!r}: expected one of {SIGMA_RULES}.")
     if modelled_per_class < 0:
-        raise ValueError(
-            f"modelled_per_class must be >= 0 (got {modelled_per_class})."
-        )
+        raise ValueError(f"modelled_per_class must be >= 0 (got {modelled_per_class}).")
     radiance = np.asarray(radiance, float)
     row_lamp = np.asarray(row_lamp, int)
     weights = np.asarray(weights, float)
@@ -1998,7 +1995,7 @@ def fit_inversion(
     )
     extra, extra_info = modelled(train_lamps)
     final = make(lamps.take(train_lamps), best, extra)
-    temps, prob_diag = (1.0, 1.0), {"calibrated": False}
+    temps, prob_diag = ((1.0, 0.0), (1.0, 0.0)), {"calibrated": False}
     if calibrate_probabilities:
         temps, prob_diag = _probability_temperatures(
             known_probs[best], novel_probs, calib[best], thr, row_lamp, lamps, l2
@@ -2015,8 +2012,9 @@ def fit_inversion(
         metric_sigma=tuple(x[0] for x in per_metric) if per else (),
         metric_floor=tuple(x[1] for x in per_metric) if per else (),
         interval_offset=tuple(offset.tolist()),
-        level1_temperature=float(temps[0]),
-        level2_temperature=float(temps[1]),
+        level1_temperature=float(temps[0][0]),
+        level2_temperature=float(temps[1][0]),
+        temperature_slope=(float(temps[0][1]), float(temps[1][1])),
         diagnostics={
             "probabilities": prob_diag,
             "nir_error": {
@@ -2036,9 +2034,7 @@ def fit_inversion(
                 key(s): dict(zip(METRICS, np.mean(v, axis=0).tolist(), strict=True))
                 for s, v in scores_m.items()
             },
-            "inner_log_evidence": {
-                key(s): float(np.mean(v)) for s, v in evid.items()
-            },
+            "inner_log_evidence": {key(s): float(np.mean(v)) for s, v in evid.items()},
             "conformal_factor": dict(zip(METRICS, conf.tolist(), strict=True)),
             "interval_offset": {m: fracs[pick[j]] for j, m in enumerate(METRICS)},
             "interval_candidates": {
@@ -2089,11 +2085,16 @@ def _global_probabilities(post, prior: LampPrior):
 
 
 def _probability_temperatures(known, novel, calib_best, thr, row_lamp, lamps, l2):
-    """Temperatures of the level-1 and level-2 probabilities fitted on the
+    """Misfit-dependent temperatures ((value, slope) for level 1 and level 2,
+    `calibration.fit_temperature`) of the type probabilities, fitted on the
     held-out rows `known` (inner folds) and `novel` (classes held out), each
     group class-balanced and weighing half (all, when `novel` is empty), and
     the diagnostics: temperatures, ECE before/after per group, `unexplained`
-    rate per group at threshold `thr`."""
+    rate per group at threshold `thr`. A lamp of a type the prior lacks is
+    fitted worse (a larger misfit) than one it knows, so a temperature that
+    grows with the misfit calibrates both groups better than one for all."""
+    mis_known = np.concatenate([m[3] for m in calib_best])
+    mis_novel = np.concatenate([it[4] for it in novel]) if novel else np.zeros(0)
     groups = {"known_types": known, "left_out_types": novel}
     data = {}
     for name, items in groups.items():
@@ -2106,15 +2107,17 @@ def _probability_temperatures(known, novel, calib_best, thr, row_lamp, lamps, l2
             w / w.sum(),
             np.vstack([it[2] for it in items]),
             np.vstack([it[3] for it in items]),
+            mis_known if name == "known_types" else mis_novel,
         )
     lab1 = np.array([LEVEL1.index(x) for x in lamps.level1])
     lab2 = np.array([GLOBAL_LEVEL2.index(x) for x in lamps.level2])
     share = 1.0 / len(data)
     rows = np.concatenate([d[0] for d in data.values()])
     w = np.concatenate([d[1] * share for d in data.values()])
+    mis = np.concatenate([d[4] for d in data.values()])
     fits = [
         fit_temperature(
-            np.vstack([d[k] for d in data.values()]), lab[row_lamp[rows]], w
+            np.vstack([d[k] for d in data.values()]), lab[row_lamp[rows]], w, mis
         )
         for k, lab in ((2, lab1), (3, lab2))
     ]
@@ -2125,24 +2128,19 @@ def _probability_temperatures(known, novel, calib_best, thr, row_lamp, lamps, l2
         "level2": fits[1].to_dict(),
         "groups": {},
     }
-    mis_known = np.concatenate([m[3] for m in calib_best])
-    for name, (r, wg, p1, _p2) in data.items():
+    for name, (r, wg, p1, _p2, m) in data.items():
         right = p1.argmax(axis=1) == lab1[row_lamp[r]]
-        flagged = (
-            mis_known > thr
-            if name == "known_types"
-            else np.concatenate([it[4] for it in novel]) > thr
-        )
+        flagged = m > thr
         diag["groups"][name] = {
             "rows": int(r.size),
             "level1_right": float(np.sum(wg * right)),
             "ece_level1_before": expected_calibration_error(p1.max(axis=1), right, wg),
             "ece_level1_after": expected_calibration_error(
-                temper(p1, fits[0].value).max(axis=1), right, wg
+                temper(p1, fits[0].at(m)).max(axis=1), right, wg
             ),
             "unexplained_rate": float(np.sum(wg * flagged)),
         }
-    return (fits[0].value, fits[1].value), diag
+    return tuple((f.value, f.slope) for f in fits), diag
 
 
 def _per_metric_held_out(per_metric_calib):
@@ -3122,9 +3120,7 @@ def leave_one_class_out(
         train = np.flatnonzero(classes != c)
         folds = stratified_lamp_folds(classes[train], 2, seed)
         inner = [(np.setdiff1d(train, train[v]), np.sort(train[v])) for v in folds]
-        prior_always = (
-            with_tm30_lamps(always, grid, drop_class=c) if tm30 else always
-        )
+        prior_always = with_tm30_lamps(always, grid, drop_class=c) if tm30 else always
         inv = fit_inversion(
             rad,
             row_lamp,
@@ -3185,9 +3181,7 @@ def leave_one_class_out(
                     )
                 ),
                 "unexplained": float(np.mean(res.unexplained[sel])),
-                "level1_predicted": _fractions(
-                    np.array(res.level1, dtype=object)[sel]
-                ),
+                "level1_predicted": _fractions(np.array(res.level1, dtype=object)[sel]),
             }
             for m, name in enumerate(METRICS):
                 if not v[m]:

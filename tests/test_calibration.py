@@ -93,3 +93,33 @@ def test_rounding_above_one_is_clipped_not_refused():
     assert expected_calibration_error([1.0 + 1e-12], [True]) == 0.0
     with pytest.raises(ValueError, match="confidence"):
         expected_calibration_error([1.01], [True])
+
+
+def test_misfit_temperature_softens_badly_fitted_rows():
+    """Rows whose misfit is large are right less often: the fitted slope is
+    positive, and per-row temperatures calibrate both kinds where one
+    temperature cannot."""
+    rng = np.random.default_rng(5)
+    n = 3000
+    p = np.tile([0.97, 0.02, 0.01], (n, 1))
+    misfit = np.r_[np.full(n // 2, 0.3), np.full(n // 2, 5.0)]
+    acc = np.where(misfit < 1, 0.95, 0.5)
+    labels = np.where(rng.random(n) < acc, 0, rng.integers(1, 3, n))
+    one = fit_temperature(p, labels)
+    per_row = fit_temperature(p, labels, misfit=misfit)
+    assert one.slope == 0.0 and per_row.slope > 0.3
+    assert per_row.brier_after < one.brier_after
+    t = per_row.at(misfit)
+    assert t[-1] > t[0]
+    conf = temper(p, t).max(axis=1)
+    right = labels == 0
+    for part in (misfit < 1, misfit > 1):
+        assert expected_calibration_error(conf[part], right[part]) < 0.05
+    with pytest.raises(ValueError, match="misfit"):
+        fit_temperature(p, labels, misfit=-misfit)
+
+
+def test_temper_takes_one_temperature_per_row():
+    p = np.array([[0.9, 0.1], [0.9, 0.1]])
+    out = temper(p, np.array([1.0, 100.0]))
+    assert out[0, 0] == pytest.approx(0.9) and out[1, 0] < 0.52

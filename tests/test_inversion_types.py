@@ -3,6 +3,8 @@ lamps and held-out types (`fit_inversion(calibrate_probabilities=True)`), the
 top two named when the call is close, and NIR variants that share their
 lamp's prior mass (`lamp_prior`, `nir_variants`)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -33,16 +35,30 @@ def fits(case):
 def test_calibration_changes_confidence_not_answers(case, fits):
     _lamps, row_lamp, rad, _train, test, *_ = case
     plain, cal = fits
-    assert plain.level1_temperature == 1.0 and cal.level1_temperature != 1.0
+    assert plain.level1_temperature == 1.0 and plain.temperature_slope == (0.0, 0.0)
     rows = np.flatnonzero(np.isin(row_lamp, test))
-    a, b = plain.predict(rad[rows]), cal.predict(rad[rows])
+    # a sharp posterior made softer by a temperature growing with the misfit
+    soft = dataclasses.replace(
+        cal,
+        level1_temperature=5.0,
+        level2_temperature=5.0,
+        temperature_slope=(1.0, 1.0),
+    )
+    a, b = (x.predict(rad[rows]) for x in (plain, cal))
     assert a.level1 == b.level1 and a.level2 == b.level2
     np.testing.assert_array_equal(a.estimate, b.estimate)
     np.testing.assert_allclose(b.level1_probabilities.sum(axis=1), 1.0)
-    np.testing.assert_array_equal(
-        a.level1_probabilities.argmax(axis=1), b.level1_probabilities.argmax(axis=1)
-    )
-    assert not np.allclose(a.level1_probabilities, b.level1_probabilities)
+    # a posterior spread over the prior's lamps: softer, more so at a larger
+    # misfit, the same order
+    k = len(soft.prior.ids)
+    post = np.random.default_rng(0).dirichlet(np.full(k, 0.3), size=2)
+    sharp = inv_mod._result(plain, post, np.array([0.5, 4.0]))
+    low = inv_mod._result(soft, post, np.array([0.5, 4.0]))
+    p0, p1 = sharp.level1_probabilities, low.level1_probabilities
+    np.testing.assert_allclose(p1.sum(axis=1), 1.0)
+    assert np.array_equal(p0.argmax(axis=1), p1.argmax(axis=1))
+    assert np.all(p1.max(axis=1) < p0.max(axis=1))
+    assert sharp.level1 == low.level1 and sharp.level2 == low.level2
 
 
 def test_calibration_diagnostics_cover_both_groups(fits):
