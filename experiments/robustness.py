@@ -102,6 +102,18 @@ def readme_text(summary: dict, out: Path) -> str:
                 else f"{v:+.{digits}f}" + ("" if s is None else f" ± {s:.{digits}f}")
             )
         lines.append(f"| {d['band_set']} | {d['perturbation']} | {' | '.join(cells)} |")
+    for b in summary["band_sets"]:
+        ds = [d for d in summary["paired"] if d["band_set"] == b]
+        if not ds:
+            continue
+        l1 = min(ds, key=lambda d: d.get("level1_correct_diff") or 0.0)
+        ler = max(ds, key=lambda d: d.get("LER_diff") or 0.0)
+        lines += [
+            "",
+            f"{b}: the largest level-1 drop is under '{l1['perturbation']}' "
+            f"({l1['level1_correct_diff']:+.2f}), the largest LER rise under "
+            f"'{ler['perturbation']}' ({ler['LER_diff']:+.1f} lm/W).",
+        ]
     lines += ["", "![robustness](robustness.png)", ""]
     return "\n".join(lines)
 
@@ -151,14 +163,19 @@ def figure(summary: dict, path: Path) -> None:
             )
             a = np.asarray([np.nan if x is None else x for x in rel[kind]["accuracy"]])
             ok = np.isfinite(c) & np.isfinite(a)
-            ax.plot(c[ok], a[ok], style, marker="o", ms=3, color=f"C{j}",
-                    label=f"{b}, {kind}")  # fmt: skip
+            ax.plot(c[ok], a[ok], style, color=f"C{j}", label=f"{b}, {kind}")
+            share = np.asarray(rel[kind]["share"])[ok]  # marker area: pixel share
+            ax.scatter(c[ok], a[ok], s=400 * share, color=f"C{j}", alpha=0.6)
     ax.set_xlabel("level-1 confidence (top probability)")
     ax.set_ylabel("fraction right")
     ax.set_xlim(0, 1)
     ax.set_ylim(0, 1)
     ax.legend(fontsize=7, loc="upper left")
-    ax.set_title("reliability (10 bins; perturbed: all rows pooled)", fontsize=9)
+    ax.set_title(
+        "reliability (10 bins, marker area: share of pixels; perturbed: all rows "
+        "pooled)",
+        fontsize=9,
+    )
     fig.suptitle(
         "Held-out measured lamps under measurement effects, surface unknown, Moon "
         "told (mean ± SD over partitions)",
