@@ -356,13 +356,11 @@ def _fit(args, ctx, bands, mode):
     """The chosen estimator trained on every scored library lamp (inner folds:
     the context's outer splits). Returns (predict(rad, surface) -> (estimate,
     interval, extra rows or None), description)."""
-    import jax.numpy as jnp
     import numpy as np
 
     from .. import inversion as inv_mod
     from ..direct import fit_direct
     from ..estimate import fit_estimator, fit_kernel_estimator
-    from ..scene import band_weights
 
     if args.estimator == "direct":
         model = fit_direct(ctx, bands, mode)
@@ -387,62 +385,39 @@ def _fit(args, ctx, bands, mode):
     splits = [(s.train, s.test) for s in ctx.splits]
     rad = ctx.radiance(bands)
     if args.estimator == "inversion":
-        lamps, always, cond, row_types = inv_mod.context_setup(ctx)
+        from ..evaluator import InversionConfig, fit_on_context  # start-up time
+
         grid = ctx.wavelength_nm
         basis = inv_mod.surface_basis(grid)
-        row_surface = {
-            "unknown": None,
-            "class": row_types,
-            "measured": inv_mod.measured_surfaces(row_types, basis),
-        }[mode]
-        resp = jnp.asarray(bands.response(jnp.asarray(grid)))
-        w = np.asarray(band_weights(resp, jnp.asarray(grid)))
-        inv = inv_mod.fit_inversion(
-            rad,
-            ctx.table.lamp_of,
-            lamps,
-            all_lamps,
-            splits,
-            w,
-            cond,
-            basis=basis,
-            surface_mode=mode,
-            row_surface=row_surface,
-            always=_with_own_lamps(
-                _with_tm30(
-                    (
-                        inv_mod.with_planck_lamps(always, grid)
-                        if args.planck == "on"
-                        else always
-                    ),
-                    args.tm30 == "on",
-                    grid,
-                ),
-                getattr(args, "own_lamps", None),
-                grid,
-            ),
-            modelled_per_class=args.modelled_per_class,
-            # the Moon's brightness of every training scene is known (as it is
-            # for an acquisition), so it is told, not fitted
-            row_moon=inv_mod.context_moon(ctx),
-            calibration=INTERVALS[args.intervals],
+        config = InversionConfig(
             mixtures=args.mixtures,
+            peak_shifts_nm=(
+                inv_mod.PEAK_SHIFTS_NM
+                if PEAK_SHIFTS[args.peak_shifts] == "grid"
+                else PEAK_SHIFTS[args.peak_shifts]
+            ),
+            planck=args.planck == "on",
+            tm30=args.tm30 == "on",
             sigma_rule=SIGMA_RULES[args.sigma],
             floor_grid=(
                 inv_mod.FLOOR_GRID
                 if args.sigma == "per-metric"
                 else (inv_mod.SIGMA_FLOOR,)
             ),
+            calibration=INTERVALS[args.intervals],
             interval_offsets=(
                 inv_mod.INTERVAL_OFFSET_GRID
                 if INTERVAL_UNITS[args.interval_unit] == "grid"
                 else INTERVAL_UNITS[args.interval_unit]
             ),
-            peak_shifts=(
-                inv_mod.PEAK_SHIFTS_NM
-                if PEAK_SHIFTS[args.peak_shifts] == "grid"
-                else PEAK_SHIFTS[args.peak_shifts]
-            ),
+            modelled_per_class=args.modelled_per_class,
+        )
+        inv = fit_on_context(
+            ctx,
+            bands,
+            config,
+            surface_mode=mode,
+            always=_with_own_lamps(None, getattr(args, "own_lamps", None), grid),
         )
         added = inv.diagnostics["modelled_lamps"]["added"]
         n_model = sum(added.values())
@@ -451,8 +426,10 @@ def _fit(args, ctx, bands, mode):
         n_planck = sum(i.startswith("planck_") for i in inv.prior.ids)
         n_tm30 = sum(i.startswith("ies_tm30_") for i in inv.prior.ids)
         own = [i for i in inv.prior.ids if i.startswith("own:")]
+        n_nir = inv.diagnostics["nir_error"]["n"]
         n_measured = (
             len(inv.prior.ids)
+            - n_nir
             - n_model
             - n_mix
             - shifted["n"]
@@ -487,6 +464,12 @@ def _fit(args, ctx, bands, mode):
                 f", and {shifted['n']} copies of its direct-emission LEDs shifted "
                 f"by {', '.join(f'{x:+g}' for x in shifted['shifts_nm'])} nm"
             )
+        if n_nir:
+            prior += (
+                f", and {n_nir} copies of its lamps with modelled near-infrared "
+                "(780-900 nm) at the low and high end of that model's measured "
+                "error (bandopt.datasets.nir.extension_error)"
+            )
         if own:
             prior += (
                 f", and {len(own)} measured lamp{'s' if len(own) > 1 else ''} of "
@@ -504,6 +487,7 @@ def _fit(args, ctx, bands, mode):
                 "turn (calibrated for lamp types the library lacks too)"
             )
             + f", in units of {_unit_text(inv)}"
+            + _probability_text(inv)
         )
         return inv, basis, desc
     fit = fit_estimator if args.estimator == "ridge" else fit_kernel_estimator
@@ -554,11 +538,21 @@ def prior_lamp_names(paths) -> list[str]:
     ]
 
 
-def _with_tm30(always, on: bool, grid):
-    """`always` plus the IES TM-30-15 lamps when `on` (`--tm30`)."""
-    from .. import inversion as inv_mod
-
-    return inv_mod.with_tm30_lamps(always, grid) if on else always
+def _probability_text(inv) -> str:
+    """How the type probabilities were calibrated, for the description."""
+    d = inv.diagnostics.get("probabilities", {})
+    if not d.get("calibrated"):
+        return "; type probabilities: the posterior's, uncalibrated"
+    g = d["groups"]
+    parts = ", ".join(
+        f"{name.replace('_', ' ')} {v['ece_level1_after']:.2f}" for name, v in g.items()
+    )
+    return (
+        "; type probabilities calibrated by a temperature that grows with the "
+        f"pixel's misfit ({inv.level1_temperature:.3g} x misfit^"
+        f"{inv.temperature_slope[0]:.2f}), fitted on held-out lamps and "
+        f"held-out types (level-1 ECE there: {parts})"
+    )
 
 
 def _with_own_lamps(always, own, grid):

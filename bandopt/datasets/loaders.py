@@ -206,11 +206,17 @@ def _parse_chunk(lines: list[tuple[int, str]], path) -> np.ndarray:
                 f"{path}, line {lineno}: expected 2 columns (wavelength_nm,value), "
                 f"found {len(row)}."
             )
-    raise ValueError(f"{path}: cannot read the numbers of lines {lines[0][0]}-"
-                     f"{lines[-1][0]}.")
+    raise ValueError(
+        f"{path}: cannot read the numbers of lines {lines[0][0]}-{lines[-1][0]}."
+    )
 
 
-def read_csv(path: str | Path, *, unit: str = "relative") -> LoadedSpectrum:
+def read_csv(
+    path: str | Path,
+    *,
+    unit: str = "relative",
+    require_range_nm: tuple[float, float] | None = REQUIRED_RANGE_NM,
+) -> LoadedSpectrum:
     """Two-column CSV `wavelength_nm,value`; a header line is optional.
 
     Separators `,`, `;`, tab or spaces; `#` starts a comment line. `unit` says
@@ -259,12 +265,17 @@ def read_csv(path: str | Path, *, unit: str = "relative") -> LoadedSpectrum:
     w = np.ascontiguousarray(data[:, 0])
     v = np.ascontiguousarray(data[:, 1])
     del data
-    values = validate_spectrum(w, v, where=str(path))
+    values = validate_spectrum(w, v, where=str(path), require_range_nm=require_range_nm)
     values, unit_out = _to_energy(w, values, kind)
     return LoadedSpectrum(w, values, unit_out, path.stem, str(path))
 
 
-def read_prn(path: str | Path, *, max_wavelength_nm: float = 900.0) -> LoadedSpectrum:
+def read_prn(
+    path: str | Path,
+    *,
+    max_wavelength_nm: float = 900.0,
+    require_range_nm: tuple[float, float] | None = REQUIRED_RANGE_NM,
+) -> LoadedSpectrum:
     """LI-COR LI-1800 PRN file: quoted header lines, then `wavelength value`.
 
     The `REM:` header line's trailing `(QNTM)` or `(ENER)` gives the unit: photon
@@ -309,12 +320,18 @@ def read_prn(path: str | Path, *, max_wavelength_nm: float = 900.0) -> LoadedSpe
         raise ValueError(f"{path}: no data rows.")
     data = np.asarray(rows, float)
     data = data[data[:, 0] <= max_wavelength_nm]
-    values = validate_spectrum(data[:, 0], data[:, 1], where=str(path))
+    values = validate_spectrum(
+        data[:, 0], data[:, 1], where=str(path), require_range_nm=require_range_nm
+    )
     values, unit_out = _to_energy(data[:, 0], values, kind)
     return LoadedSpectrum(data[:, 0], values, unit_out, path.stem, str(path))
 
 
-def read_tm27(path: str | Path) -> LoadedSpectrum:
+def read_tm27(
+    path: str | Path,
+    *,
+    require_range_nm: tuple[float, float] | None = REQUIRED_RANGE_NM,
+) -> LoadedSpectrum:
     """IES TM-27-14 XML spectral data, read with colour-science
     (`colour.SpectralDistribution_IESTM2714`). Photon units are converted."""
     # start-up time: colour takes ~1.5 s to import (only TM-27 files need it)
@@ -338,25 +355,37 @@ def read_tm27(path: str | Path) -> LoadedSpectrum:
         )
     kind = "photon" if "photon" in quantity else "energy"
     w = np.asarray(sd.wavelengths, float)
-    values = validate_spectrum(w, np.asarray(sd.values, float), where=str(path))
+    values = validate_spectrum(
+        w,
+        np.asarray(sd.values, float),
+        where=str(path),
+        require_range_nm=require_range_nm,
+    )
     values, unit_out = _to_energy(w, values, kind)
     name = getattr(sd.header, "description", None) or path.stem
     return LoadedSpectrum(w, values, unit_out, str(name), str(path))
 
 
-def read_spectrum(path: str | Path, *, unit: str = "relative") -> LoadedSpectrum:
+def read_spectrum(
+    path: str | Path,
+    *,
+    unit: str = "relative",
+    require_range_nm: tuple[float, float] | None = REQUIRED_RANGE_NM,
+) -> LoadedSpectrum:
     """Read a user spectrum, choosing the reader by file extension:
-    `.csv`/`.txt` (two columns), `.prn` (LI-1800), `.xml`/`.spdx` (IES TM-27)."""
+    `.csv`/`.txt` (two columns), `.prn` (LI-1800), `.xml`/`.spdx` (IES TM-27).
+    `require_range_nm`: the range it must cover (None: any, e.g. a
+    near-infrared part)."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such file.")
     suffix = path.suffix.lower()
     if suffix in (".csv", ".txt", ".dat"):
-        return read_csv(path, unit=unit)
+        return read_csv(path, unit=unit, require_range_nm=require_range_nm)
     if suffix == ".prn":
-        return read_prn(path)
+        return read_prn(path, require_range_nm=require_range_nm)
     if suffix in (".xml", ".spdx"):
-        return read_tm27(path)
+        return read_tm27(path, require_range_nm=require_range_nm)
     raise ValueError(
         f"{path}: unknown file type {suffix!r}; expected one of "
         "['.csv', '.dat', '.prn', '.spdx', '.txt', '.xml']."

@@ -38,6 +38,7 @@ from scipy.signal import find_peaks, peak_widths
 from ..names import CanonicalMapping
 from ..spectra import GRID_1NM, planck_radiance
 from . import nir as nir_models
+from .loaders import read_spectrum
 
 
 VISIBLE_NM = (380.0, 780.0)
@@ -604,20 +605,11 @@ def _user_nir(nir_option, end_nm: float):
     must cover from the measured end to 900 nm."""
     if isinstance(nir_option, str | Path):
         label = str(nir_option)
-        try:  # two columns; comma-separated for .csv, whitespace otherwise
-            data = np.loadtxt(
-                nir_option,
-                delimiter="," if label.lower().endswith(".csv") else None,
-                comments="#",
-                ndmin=2,
-            )
+        try:  # the one reader of spectral files (CSV, .prn, TM-27 XML)
+            sp = read_spectrum(nir_option, require_range_nm=None)
         except (OSError, ValueError) as exc:
-            raise ValueError(
-                f"nir {label}: cannot read a two-column table ({exc})"
-            ) from None
-        if data.shape[1] < 2:
-            raise ValueError(f"nir {label}: need 'wavelength_nm value' columns.")
-        w, v = data[:, 0], data[:, 1]
+            raise ValueError(f"nir {label}: cannot read a spectrum ({exc})") from None
+        w, v = sp.wavelength_nm, sp.values
     else:
         try:
             w, v = nir_option
