@@ -44,6 +44,13 @@ for 1 panchromatic + 5 bands against every reference sensor."""
 
 FOLDS = (0, 1, 2, "final")
 
+DEFAULT_OUT = Path("results/search")
+"""`--out` of the shipped study: only a run into it replaces the "spectral"
+recommendation in results/recommendation.json and the search section of
+results/README.md; a run elsewhere (e.g. `--preset search_perturbed --out
+results/search_perturbed`) writes both into its own folder, so a variant
+never replaces what `bandopt evaluate` ships."""
+
 
 def search_tasks(
     targets, ns, *, pan="fixed", seed=0, max_evals=400, preset="search", noise=None
@@ -741,7 +748,8 @@ def plot_pareto(cands, refs, rec_key, path, note, others=None):
 
 def study(args) -> dict:
     """The stability study (see `STUDY`): band count, Pareto, recommendation,
-    tolerance and comparison; writes results/search/ and the recommendation."""
+    tolerance and comparison; writes `--out` and the recommendation (see
+    `DEFAULT_OUT` for where a run outside results/search/ writes it)."""
     from bandopt.estimate import METRICS, UNITS
     from bandopt.provenance import write_manifest
     from bandopt.results import update_recommendation
@@ -1001,6 +1009,7 @@ def study(args) -> dict:
                 ],
             }
         )
+    shipped = out.resolve() == DEFAULT_OUT.resolve()
     update_recommendation(
         "spectral",
         {
@@ -1029,6 +1038,7 @@ def study(args) -> dict:
             "estimator": scorer_note,
             "source": str(out / "compare.json"),
         },
+        path=None if shipped else out / "recommendation.json",
     )
     BandSetJson = bands.to_json
     BandSetJson(out / "recommended_bands.json")
@@ -1050,7 +1060,15 @@ def study(args) -> dict:
             "modelled_spectra_scored": "see context (library selection scored_only)",
         },
     )
-    write_study_readme(summary_json, stab, tol, rec_key, wall, out)
+    write_study_readme(
+        summary_json,
+        stab,
+        tol,
+        rec_key,
+        wall,
+        out,
+        readme=Path("results") / "README.md" if shipped else out / "README.md",
+    )
     print(f"study wall time {wall:.0f} s", file=sys.stderr)
     return summary_json
 
@@ -1064,9 +1082,9 @@ def _per_metric(intervals) -> str:
     return " / ".join(str(intervals[m]) for m in ("LER", "G", "CCT"))
 
 
-def write_study_readme(s, stab, tol, rec_key, wall, out: Path) -> None:
-    """Replace this experiment's section in results/README.md."""
-    readme = Path("results") / "README.md"
+def write_study_readme(s, stab, tol, rec_key, wall, out: Path, *, readme: Path) -> None:
+    """Replace this experiment's section in `readme` (results/README.md for
+    the shipped study, see `DEFAULT_OUT`)."""
     start, end = "<!-- search:start -->", "<!-- search:end -->"
     ch = s["band_count"]
     lines = ["n (+pan) | norm. MAE mean +/- SD | LER lm/W | G | CCT K | F1 | SNR"]
@@ -1152,8 +1170,13 @@ def write_study_readme(s, stab, tol, rec_key, wall, out: Path) -> None:
                 for r in rows
             )
     freq = ", ".join(f"{k} {v:.0%}" for k, v in stab["region_frequency"].items())
+    how = (
+        "`make run`"
+        if readme == Path("results") / "README.md"
+        else f"preset `{s['context']['preset']}`"
+    )
     body = f"""{start}
-## Spectral band search: stability study (`{out}`, `make run`)
+## Spectral band search: stability study (`{out}`, {how})
 
 Estimator judging every design and reference sensor on the outer folds:
 {s["estimator"]["note"]} (scorer `{s["estimator"]["scorer"]}`); search surrogate:
