@@ -75,7 +75,7 @@ def fit_on_context(
     train_lamps: Sequence[int] | None = None,
     inner: Sequence[tuple[np.ndarray, np.ndarray]] | None = None,
     always=None,
-) -> "inv_mod.Inversion":
+):
     """Fit `config`'s inversion on a `search.Context` for `bands`.
 
     `train_lamps` (indices of the context's scored lamps; default all) with

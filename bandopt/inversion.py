@@ -155,6 +155,14 @@ COVERAGE = 0.9
 UNEXPLAINED_QUANTILE = 0.99
 """Known-lamp quantile of the reduced χ² above which a pixel is unexplained."""
 
+FLAG_NOISE = (0.003, 1e-3)
+"""Band error (`σ_rel`, floor) of the misfit that decides `unexplained`: the
+sharpest of `SIGMA_REL_GRID` with `SIGMA_FLOOR`, whatever band error the
+estimates use. With a relative band error σ a band the prior cannot produce
+at all adds only ~1/σ² to χ², so at the σ of 0.1 a fit may choose no pixel
+can ever exceed the held-out lamps' 99th percentile and the flag never fires;
+at 0.003 a pixel unlike every lamp stands far above any held-out lamp."""
+
 PHYSICAL_RANGE = {
     "LER": (0.0, K_M_LM_PER_W),
     "G": (-G_CAP, G_CAP),
@@ -1438,6 +1446,7 @@ class Inversion:
     level1_temperature: float = 1.0
     level2_temperature: float = 1.0
     temperature_slope: tuple[float, float] = (0.0, 0.0)
+    flag_noise: tuple[float, float] | None = None
 
     @property
     def offsets(self) -> np.ndarray:
@@ -1549,7 +1558,8 @@ class Inversion:
         from the posterior at `sigma_rel`, each metric from the posterior at
         its own `metric_noise` (one scoring per distinct value)."""
         joint = (self.sigma_rel, self.sigma_floor)
-        noise = sorted({joint, *self.metric_noise})
+        flag = self.flag_noise or joint
+        noise = sorted({joint, flag, *self.metric_noise})
         if len(noise) == 1:
             post, misfit = self.posterior(radiance, surface, moon=moon)
             return _result(self, post, misfit)
@@ -1559,7 +1569,9 @@ class Inversion:
         )  # fmt: skip
         j = noise.index(joint)
         by_metric = [posts[:, noise.index(x)] for x in self.metric_noise]
-        return _result(self, posts[:, j], misfits[:, j], by_metric)
+        return _result(
+            self, posts[:, j], misfits[:, j], by_metric, misfits[:, noise.index(flag)]
+        )
 
 
 def build_inversion(
@@ -1655,10 +1667,13 @@ def _widened(mean, rng, conformal, offset):
     return mean, np.minimum(lo, mean), np.maximum(hi, mean)
 
 
-def _result(inv: Inversion, post, misfit, by_metric=None) -> InversionResult:
+def _result(
+    inv: Inversion, post, misfit, by_metric=None, flag_misfit=None
+) -> InversionResult:
     """Estimates, intervals, flags and types of the posterior `post` (n, k);
     `by_metric`: one posterior per metric for the estimates and intervals
-    (default: `post` for all three)."""
+    (default: `post` for all three); `flag_misfit`: the misfit at
+    `Inversion.flag_noise` that decides `unexplained` (default `misfit`)."""
     mean, rng, p_cct = _metrics_per_posterior(
         [post] * 3 if by_metric is None else by_metric, inv.prior
     )
@@ -1668,7 +1683,7 @@ def _result(inv: Inversion, post, misfit, by_metric=None) -> InversionResult:
     # mired interval [lo, hi] is CCT [MIRED/hi, MIRED/lo]
     iv = np.stack([lo, hi], axis=-1)
     iv[:, 2] = np.stack([MIRED / hi[:, 2], MIRED / lo[:, 2]], axis=-1)
-    unexplained = misfit > inv.threshold
+    unexplained = (misfit if flag_misfit is None else flag_misfit) > inv.threshold
     l2 = sorted(set(inv.prior.level2))
     m2 = np.array([[x == c for c in l2] for x in inv.prior.level2], float)
     p2 = post @ m2
@@ -1903,17 +1918,21 @@ def fit_inversion(
     evid = {s: [] for s in grid_n}
     calib = {s: [] for s in grid_n}
     known_probs = {s: [] for s in grid_n}  # (rows, va, level-1, level-2 probs)
+    scored_n = grid_n + ([] if FLAG_NOISE in grid_n else [FLAG_NOISE])
+    flag_col = scored_n.index(FLAG_NOISE)
+    flag_known = []  # (rows, va, misfit at FLAG_NOISE) per inner fold
     for tr, va in inner:
         rows = rows_of(va)
         inv = make(lamps.take(tr), grid_n[0], modelled(tr)[0])
         posts, misfits, lev = inv.posterior(
             radiance[rows],
             surf(rows),
-            sigmas=[x[0] for x in grid_n],
+            sigmas=[x[0] for x in scored_n],
             evidence=True,
             moon=moon_of(rows),
-            floors=[x[1] for x in grid_n],
+            floors=[x[1] for x in scored_n],
         )
+        flag_known.append((rows, va, misfits[:, flag_col]))
         w = class_balanced_weights(l2[va])
         rl = row_lamp[rows]
         for j, s in enumerate(grid_n):
@@ -1934,7 +1953,8 @@ def fit_inversion(
             calib[s].append((rows, mean, rng, misfit, va))
             if calibrate_probabilities:
                 probs = _global_probabilities(post, inv.prior)
-                known_probs[s].append((rows, va, *probs))
+                flagm = misfits[:, flag_col]
+                known_probs[s].append((rows, va, *probs, misfit, flagm))
     if sigma_rule == "evidence":
         best = max(grid_n, key=lambda s: float(np.mean(evid[s])))
     else:
@@ -1950,7 +1970,7 @@ def fit_inversion(
     novel_probs = []  # the rows of each training class held out in turn
     if calibration == "classes":  # each training class held out in turn
         held_out = []
-        sig = sorted({best, *per_metric})
+        sig = sorted({best, FLAG_NOISE, *per_metric})
         train_arr = np.asarray(train_lamps, int)
         for c in sorted(set(l2[train_arr])):
             va = train_arr[l2[train_arr] == c]
@@ -1977,13 +1997,14 @@ def fit_inversion(
                         va,
                         *_global_probabilities(posts[:, sig.index(best)], inv.prior),
                         misfits[:, sig.index(best)],
+                        misfits[:, sig.index(FLAG_NOISE)],
                     )
                 )
     offs = np.array(fracs)[:, None] * spread[None]
     pick, confs, widths = _narrowest_intervals(held_out, row_lamp, l2, tm, valid, offs)
     conf, offset = confs[pick, np.arange(3)], offs[pick, np.arange(3)]
     mis_all, w_all = [], []
-    for rows, _mean, _rng, misfit, va in calib[best]:
+    for rows, va, misfit in flag_known:
         mis_all.append(misfit)
         w_all.append(_row_weights(rows, va, row_lamp, l2))
     mis_all, w_all = np.concatenate(mis_all), np.concatenate(w_all)
@@ -1998,7 +2019,7 @@ def fit_inversion(
     temps, prob_diag = ((1.0, 0.0), (1.0, 0.0)), {"calibrated": False}
     if calibrate_probabilities:
         temps, prob_diag = _probability_temperatures(
-            known_probs[best], novel_probs, calib[best], thr, row_lamp, lamps, l2
+            known_probs[best], novel_probs, thr, row_lamp, lamps, l2
         )
 
     def key(x) -> str:  # a σ alone when the floor is not chosen
@@ -2015,6 +2036,7 @@ def fit_inversion(
         level1_temperature=float(temps[0][0]),
         level2_temperature=float(temps[1][0]),
         temperature_slope=(float(temps[0][1]), float(temps[1][1])),
+        flag_noise=FLAG_NOISE,
         diagnostics={
             "probabilities": prob_diag,
             "nir_error": {
@@ -2046,6 +2068,9 @@ def fit_inversion(
                 for c, f in enumerate(fracs)
             },
             "unexplained_threshold_reduced_chi2": thr,
+            "unexplained_band_error": dict(
+                zip(("sigma_rel", "floor"), FLAG_NOISE, strict=True)
+            ),
             "n_prior_lamps": len(final.prior.ids),
             "mixtures": {
                 "max_pairs_per_class": int(mixtures),
@@ -2084,17 +2109,16 @@ def _global_probabilities(post, prior: LampPrior):
     return post @ m1, post @ m2
 
 
-def _probability_temperatures(known, novel, calib_best, thr, row_lamp, lamps, l2):
+def _probability_temperatures(known, novel, thr, row_lamp, lamps, l2):
     """Misfit-dependent temperatures ((value, slope) for level 1 and level 2,
     `calibration.fit_temperature`) of the type probabilities, fitted on the
     held-out rows `known` (inner folds) and `novel` (classes held out), each
     group class-balanced and weighing half (all, when `novel` is empty), and
     the diagnostics: temperatures, ECE before/after per group, `unexplained`
-    rate per group at threshold `thr`. A lamp of a type the prior lacks is
+    rate per group at threshold `thr` (rows `(rows, lamps, level-1 probs,
+    level-2 probs, misfit, misfit at FLAG_NOISE)`). A lamp of a type the prior lacks is
     fitted worse (a larger misfit) than one it knows, so a temperature that
     grows with the misfit calibrates both groups better than one for all."""
-    mis_known = np.concatenate([m[3] for m in calib_best])
-    mis_novel = np.concatenate([it[4] for it in novel]) if novel else np.zeros(0)
     groups = {"known_types": known, "left_out_types": novel}
     data = {}
     for name, items in groups.items():
@@ -2107,7 +2131,8 @@ def _probability_temperatures(known, novel, calib_best, thr, row_lamp, lamps, l2
             w / w.sum(),
             np.vstack([it[2] for it in items]),
             np.vstack([it[3] for it in items]),
-            mis_known if name == "known_types" else mis_novel,
+            np.concatenate([it[4] for it in items]),
+            np.concatenate([it[5] for it in items]),
         )
     lab1 = np.array([LEVEL1.index(x) for x in lamps.level1])
     lab2 = np.array([GLOBAL_LEVEL2.index(x) for x in lamps.level2])
@@ -2128,9 +2153,9 @@ def _probability_temperatures(known, novel, calib_best, thr, row_lamp, lamps, l2
         "level2": fits[1].to_dict(),
         "groups": {},
     }
-    for name, (r, wg, p1, _p2, m) in data.items():
+    for name, (r, wg, p1, _p2, m, m_flag) in data.items():
         right = p1.argmax(axis=1) == lab1[row_lamp[r]]
-        flagged = m > thr
+        flagged = m_flag > thr
         diag["groups"][name] = {
             "rows": int(r.size),
             "level1_right": float(np.sum(wg * right)),

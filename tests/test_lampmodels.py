@@ -114,7 +114,7 @@ def test_fit_recovers_a_model_spectrum():
     ler = np.asarray(m["LER"])
     assert ler[1] == pytest.approx(ler[0], rel=0.01)
     assert float(m["CCT"][1]) == pytest.approx(float(m["CCT"][0]), abs=30.0)
-    with pytest.raises(ValueError, match="finite over 380-780"):
+    with pytest.raises(ValueError, match="finite from 380 nm to at least 650 nm"):
         lm.fit("pc_led", W, np.where(W < 600, np.nan, s))
 
 
