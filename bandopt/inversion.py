@@ -62,8 +62,17 @@ noise. The discrete posterior is exact for its prior, fast and physical.
 **Intervals and reject.** The 90 % interval is the posterior's 5-95 %
 range widened by a split-conformal factor (`Romano2019`) calibrated on the
 inner folds' held-out lamps (class-balanced), then clipped to the physical
-range. A pixel whose best reduced χ² exceeds the 99th percentile of the inner
-folds' held-out lamps is flagged `unexplained` (and its type is not guessed).
+range. A pixel whose best reduced χ² at the sharp band error `FLAG_NOISE`
+exceeds the 99th percentile of the inner folds' held-out lamps is flagged
+`unexplained` (and its type is not guessed).
+
+**Type probabilities and modelled near-infrared.** Optionally
+(`calibrate_probabilities`) the level-1/-2 probabilities are tempered with a
+temperature that grows with the pixel's misfit, fitted on held-out lamps and
+held-out types (`bandopt.calibration`). Optionally (`nir_error`) every lamp
+whose 780-900 nm part is modelled enters the prior with two copies at the
+low and high end of that model's measured error (`nir_variants`), sharing its
+prior mass. `bandopt.evaluator.InversionConfig` turns both on.
 """
 
 import dataclasses
