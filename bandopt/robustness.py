@@ -33,6 +33,7 @@ clean).
 """
 
 import dataclasses
+import gzip
 import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -515,8 +516,15 @@ def run_partition(
 # The study: units, resume, summary
 
 
+def _open(path: Path, mode: str):
+    """A text file, gzip-compressed when its name ends in `.gz` (appending
+    adds a gzip member; readers see one stream)."""
+    return gzip.open(path, mode) if path.suffix == ".gz" else path.open(mode[0])
+
+
 def load_records(path: Path, study: RobustnessStudy, resume: bool):
-    """Records of finished units `(partition, band set)` in `path` (a unit is
+    """Records of finished units `(partition, band set)` in `path` (JSON
+    lines, gzip-compressed if it ends in `.gz`; a unit is
     finished when it holds every row the study can score in it) and the set
     of those units; an empty start without `resume` (the file is removed)."""
     path = Path(path)
@@ -524,11 +532,15 @@ def load_records(path: Path, study: RobustnessStudy, resume: bool):
         path.unlink(missing_ok=True)
         return [], set()
     recs = []
-    for line in path.read_text().splitlines():
+    with _open(path, "rt") as fh:
         try:
-            recs.append(json.loads(line))
-        except json.JSONDecodeError:  # an interrupted write: its unit reruns
-            continue
+            for line in fh:
+                try:
+                    recs.append(json.loads(line))
+                except json.JSONDecodeError:  # an interrupted write: unit reruns
+                    continue
+        except EOFError:  # a gzip member cut short by an interrupted write
+            pass
     units: dict = {}
     for r in recs:
         units.setdefault((r["partition"], r["band_set"]), set()).add(r["perturbation"])
@@ -539,7 +551,8 @@ def load_records(path: Path, study: RobustnessStudy, resume: bool):
         for r in recs
         if (r["partition"], r["band_set"]) in done and r["perturbation"] in need
     ]
-    path.write_text("".join(json.dumps(r) + "\n" for r in kept))
+    with _open(path, "wt") as fh:
+        fh.writelines(json.dumps(r) + "\n" for r in kept)
     return kept, done
 
 
@@ -570,7 +583,7 @@ def run_study(
             if (p, label) in done:
                 continue
             recs = run_partition(study, part, label, b, perturbed, log)
-            with Path(records_path).open("a") as fh:
+            with _open(Path(records_path), "at") as fh:
                 fh.writelines(json.dumps(r) + "\n" for r in recs)
             records += recs
             log(f"partition {p}, {label}: done ({len(recs)} records)")

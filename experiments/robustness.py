@@ -5,8 +5,9 @@ real spectra hold (issue 30; the study is `bandopt.robustness`).
         [--resume] [--only-partitions P ...]
 
 Writes to `results/robustness/` (`--quick`: `results/robustness/quick/`, one
-partition, a few rows, our bands): `records.jsonl` (one line per held-out
-lamp, band set and row, resumable per (partition, band set)), `summary.json`
+partition, a few rows, our bands): `records.jsonl.gz` (gzip-compressed JSON
+lines, one per held-out lamp, band set and row, with each pixel's level-1
+confidence; resumable per (partition, band set)), `summary.json`
 (strict JSON), `robustness.png`, `manifest.json` and `README.md`.
 """
 
@@ -229,7 +230,7 @@ def main(argv=None) -> int:
     t0 = time.time()
     records = rb.run_study(
         study,
-        out / "records.jsonl",
+        out / "records.jsonl.gz",
         resume=args.resume,
         partitions=args.only_partitions,
         log=lambda m: log(f"{m} ({time.time() - t0:.0f} s)"),

@@ -1,6 +1,7 @@
 """bandopt.robustness on a tiny configuration: records, pairing, summary maths,
 resume, and the experiment's outputs."""
 
+import gzip
 import json
 
 import numpy as np
@@ -127,6 +128,14 @@ def test_resume_keeps_finished_units(run, tmp_path):
     assert {r["perturbation"] for r in kept} == {"clean"}
     assert rb.load_records(copy, STUDY, resume=False) == ([], set())
     assert not copy.exists()
+    packed = tmp_path / "records.jsonl.gz"  # the committed form
+    with gzip.open(packed, "wt") as fh:
+        fh.write(path.read_text())
+    assert rb.load_records(packed, STUDY, resume=True) == (
+        records,
+        {(0, "recommended")},
+    )
+    assert rb.run_study(STUDY, packed, resume=True) == records
 
 
 def test_masking_a_class_removes_it_from_the_answer():
