@@ -422,8 +422,14 @@ def get_context(
 
 
 def task_id(task: dict) -> str:
-    """Stable file name of a task: readable prefix + hash of its full spec."""
-    h = hashlib.sha1(json.dumps(task, sort_keys=True).encode()).hexdigest()[:10]
+    """Stable file name of a task: readable prefix + hash of its full spec
+    (with its preset's scene perturbations, when it has any, so a cached
+    task is never reused after they change)."""
+    spec = dict(task)
+    pert = PRESETS.get(task.get("preset"), {}).get("perturbations")
+    if pert is not None:
+        spec["perturbations"] = pert.to_dict()
+    h = hashlib.sha1(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:10]
     fold = task.get("fold", "final")
     kind = task.get("kind", "search")
     if kind == "reference":

@@ -1,7 +1,7 @@
 """Judge both recommended band sets on clean and on perturbed scenes.
 
 Run from the repo root:
-    python results/search_perturbed/cross_judge.py \
+    python -m experiments.search_cross_judge \
         results/search_perturbed/cross_judged.json
 
 results/search/recommended_bands.json (clean search) and
