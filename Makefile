@@ -19,8 +19,8 @@ $(STAMP): pyproject.toml requirements.lock
 	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test]'
 	touch $@
 
-run: $(STAMP)  ## set up, then the default band search + comparison with reference sensors (writes recommendation.json "spectral")
-	$(BIN)/python -m experiments.search run
+run: $(STAMP)  ## set up, then the default band search + comparison with reference sensors (writes recommendation.json "spectral"); on perturbed scenes: ARGS="--preset search_perturbed --out results/search_perturbed"
+	$(BIN)/python -m experiments.search run $(ARGS)
 
 test: $(STAMP)  ## set up, then the fast test suite (no 6S, no long sweeps, no Monte Carlo)
 	$(BIN)/python -m pytest -q
