@@ -96,6 +96,7 @@ def recommended_band_set(
     and the experiments call it; nothing else parses them).
 
     Two forms, in this order, no guessing between others:
+
     1. `entry["band_set"]`: the `BandSet.to_dict()` form every experiment
        writes;
     2. an entry without `band_set` whose `bands` is a non-empty list of bands

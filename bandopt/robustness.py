@@ -156,9 +156,9 @@ BAND_SETS = (
     ("sdgsat-1", "sdgsat-1"),
     ("nightsat", "nightsat"),
 )
-"""(label, source) of the band sets scored: ours and the two reference
-sensors issue 30 compares; a source is a band-set file or a reference sensor
-name (`sensor.reference.resolve_band_set`)."""
+"""Pairs of a name and where the bands come from: ours and the two
+reference sensors the field comparison used; the second item is a band-set
+file or a reference sensor name (`sensor.reference.resolve_band_set`)."""
 
 
 @dataclasses.dataclass(frozen=True)

@@ -76,7 +76,7 @@ def test_guide_dask_option_exists():
 @pytest.mark.filterwarnings("ignore:The mapping interface for autodoc options")
 def test_sphinx_build_offline(tmp_path, monkeypatch):
     """The whole documentation, API reference included, builds with every
-    network connection refused."""
+    network connection refused and no warning (`-W`, as `make docs`)."""
     from sphinx.cmd import build as sphinx_build  # in the test extra: must not skip
 
     def refuse(*args, **kwargs):
@@ -85,7 +85,9 @@ def test_sphinx_build_offline(tmp_path, monkeypatch):
     monkeypatch.setattr(socket.socket, "connect", refuse)
     monkeypatch.setattr(socket, "create_connection", refuse)
     out = tmp_path / "html"
-    rc = sphinx_build.build_main(["-b", "html", "-q", "-E", str(DOCS), str(out)])
+    rc = sphinx_build.build_main(
+        ["-b", "html", "-q", "-W", "--keep-going", "-E", str(DOCS), str(out)]
+    )
     assert rc == 0
     api = (out / "api.html").read_text()
     for name in ("build_report", "update_recommendation", "check_consistency"):

@@ -154,7 +154,8 @@ PLANCK_TEMPERATURES_K = np.arange(1500.0, 4001.0, 50.0)
 """Temperatures tried by the Planck fit (every filament lamp lies in it). [K]"""
 
 PLANCK_MAX_RESIDUAL = 0.12
-"""Incandescent: median |log(spectrum / best Planck curve)| over
+"""Incandescent: median of the absolute log ratio of the spectrum to its best
+Planck curve over
 `PLANCK_RANGE_NM` below this (filaments <= 0.09, neodymium glass with its
 580 nm notch included; phosphor LEDs >= 0.2 but for two built to imitate a
 filament, which `INCANDESCENT_MAX_BLUE_FRACTION` separates). The median
