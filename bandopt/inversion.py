@@ -1363,6 +1363,18 @@ CLOSE_CALL_RATIO = 0.5
 probable as the first (e.g. 0.6 against 0.3): the answer names both."""
 
 
+def top_two(probabilities: dict) -> dict:
+    """The two most probable types of `{type: probability}` (ties in the
+    given order) and whether the call is close (`CLOSE_CALL_RATIO`): then
+    both are answers a user should weigh."""
+    order = sorted(probabilities, key=lambda k: -probabilities[k])[:2]
+    pair = [{"type": k, "probability": float(probabilities[k])} for k in order]
+    close = len(pair) == 2 and pair[1]["probability"] >= CLOSE_CALL_RATIO * max(
+        pair[0]["probability"], 1e-300
+    )
+    return {"types": pair, "close": bool(close)}
+
+
 @dataclasses.dataclass(frozen=True)
 class InversionResult:
     """Per pixel: `estimate` (n, 3) [lm W⁻¹], [1], [K] (CCT NaN where not
@@ -1420,18 +1432,10 @@ class InversionResult:
         }
 
     def top2(self, i: int) -> dict:
-        """The two most probable level-1 types of pixel `i` with their
-        probabilities, and whether the call is close (`CLOSE_CALL_RATIO`):
-        then both are answers a user should weigh."""
-        p = self.level1_probabilities[i]
-        order = np.argsort(-p, kind="stable")[:2]
-        pair = [
-            {"type": self.level1_labels[j], "probability": float(p[j])} for j in order
-        ]
-        close = len(pair) == 2 and pair[1]["probability"] >= CLOSE_CALL_RATIO * max(
-            pair[0]["probability"], 1e-300
+        """`top_two` of pixel `i`'s level-1 probabilities."""
+        return top_two(
+            dict(zip(self.level1_labels, self.level1_probabilities[i], strict=True))
         )
-        return {"types": pair, "close": bool(close)}
 
 
 @dataclasses.dataclass(frozen=True)

@@ -152,3 +152,24 @@ def test_nir_variants_scale_only_the_modelled_part():
             np.testing.assert_allclose(
                 row[beyond], max(1 + f, 0) * lamps.spectra[i][beyond], rtol=1e-9
             )
+
+
+def test_candidate_extensions_merge_their_top_two():
+    """`bandopt evaluate` averages the candidates' level-1 probabilities and
+    names the top two of the average."""
+    from bandopt.cli._cmd_evaluate import merge_candidates
+
+    def row(p):
+        return {
+            "interval90": {"LER": [100.0, 120.0]},
+            "level1_probabilities": p,
+            "predicted_level1": max(p, key=p.get),
+        }
+
+    out = merge_candidates(
+        [row({"led": 0.9, "fluorescent": 0.1}), row({"led": 0.2, "fluorescent": 0.8})]
+    )
+    assert out["predicted_level1"] == "led"  # 0.55 against 0.45
+    assert out["level1_top2"]["close"]
+    assert [t["type"] for t in out["level1_top2"]["types"]] == ["led", "fluorescent"]
+    assert inv_mod.top_two({"a": 0.8, "b": 0.15, "c": 0.05})["close"] is False

@@ -332,6 +332,7 @@ def test_evaluate_json_schema(tmp_path, capsys):
             "null_reasons",
             "unexplained",
             "level1_probabilities",
+            "level1_top2",
             "predicted_level1",
             "predicted_level2",
         }
@@ -340,6 +341,10 @@ def test_evaluate_json_schema(tmp_path, capsys):
         assert r["predicted_level1"] == "hid" and r["predicted_level2"] == "hps"
         assert r["unexplained"] is False
         assert abs(sum(r["level1_probabilities"].values()) - 1) < 1e-9
+        top = r["level1_top2"]["types"]
+        assert top[0]["type"] == "hid" and len(top) == 2
+        assert top[0]["probability"] == max(r["level1_probabilities"].values())
+        assert isinstance(r["level1_top2"]["close"], bool)
         np.testing.assert_allclose(r["true"]["LER"], truth[0, 0], rtol=2e-3)
         for m, (lo, hi) in PHYSICAL.items():
             e, iv = r["estimate"][m], r["interval90"][m]

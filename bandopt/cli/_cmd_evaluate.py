@@ -325,9 +325,12 @@ def merge_candidates(rows: list[dict]) -> dict:
         )
     probs = [r.get("level1_probabilities") for r in rows]
     if all(probs):
+        from ..inversion import top_two  # start-up time
+
         avg = {k: sum(p[k] for p in probs) / len(probs) for k in probs[0]}
         out["level1_probabilities"] = avg
         out["predicted_level1"] = max(avg, key=avg.get)
+        out["level1_top2"] = top_two(avg)
     return out
 
 
@@ -836,6 +839,7 @@ def run(args) -> int:
                 "null_reasons": r["null_reasons"],
                 "unexplained": r["unexplained"],
                 "level1_probabilities": r["level1_probabilities"],
+                "level1_top2": r.get("level1_top2"),
                 "predicted_level1": r["predicted_level1"],
                 "predicted_level2": r["predicted_level2"],
                 **(
