@@ -35,7 +35,8 @@ class InversionConfig:
     - `nir_error`: the modelled NIR of extended lamps carries its measured
       error (`inversion.nir_variants`), so no type rests on it alone.
     - `calibrate_probabilities`: type probabilities temperature-scaled on
-      held-out lamps and held-out types (`bandopt.calibration`)."""
+      held-out lamps of known types (`bandopt.calibration`); held-out types
+      are reported beside them and left to the `unexplained` flag."""
 
     mixtures: int = inv_mod.MIX_PAIRS
     peak_shifts_nm: tuple[float, ...] = inv_mod.PEAK_SHIFTS_NM

@@ -63,13 +63,16 @@ noise. The discrete posterior is exact for its prior, fast and physical.
 range widened by a split-conformal factor (`Romano2019`) calibrated on the
 inner folds' held-out lamps (class-balanced), then clipped to the physical
 range. A pixel whose best reduced χ² at the sharp band error `FLAG_NOISE`
-exceeds the 99th percentile of the inner folds' held-out lamps is flagged
+exceeds the 95th percentile of the inner folds' held-out lamps (a conformal
+test at a 5 % false-flag rate on lamps of known types) is flagged
 `unexplained` (and its type is not guessed).
 
 **Type probabilities and modelled near-infrared.** Optionally
 (`calibrate_probabilities`) the level-1/-2 probabilities are tempered with a
-temperature that grows with the pixel's misfit, fitted on held-out lamps and
-held-out types (`bandopt.calibration`). Optionally (`nir_error`) every lamp
+temperature that grows with the pixel's misfit, fitted on held-out lamps of
+the types the prior knows (`bandopt.calibration`); lamps of a type it lacks
+are left to the `unexplained` flag, and both groups' calibration is
+reported. Optionally (`nir_error`) every lamp
 whose 780-900 nm part is modelled enters the prior with two copies at the
 low and high end of that model's measured error (`nir_variants`), sharing its
 prior mass. `bandopt.evaluator.InversionConfig` turns both on.
@@ -161,15 +164,21 @@ S2_FILE = Path(__file__).parent / "sensor" / "data" / "sentinel2a_msi_srf.csv"
 COVERAGE = 0.9
 """Nominal coverage of the intervals."""
 
-UNEXPLAINED_QUANTILE = 0.99
-"""Known-lamp quantile of the reduced χ² above which a pixel is unexplained."""
+UNEXPLAINED_QUANTILE = 0.95
+"""Known-lamp quantile of the reduced χ² (at `FLAG_NOISE`) above which a pixel
+is unexplained: a split-conformal novelty test (`Vovk2005`) whose false-flag
+rate on held-out lamps of known types is 1 - 0.95. The inner folds' priors
+lack a fold's lamps, so their misfits run higher than the final prior's and
+the rate on new lamps of known types is at most that. The usual 5 % level of
+a test; not chosen on any score. At 0.99 the flag never fired on types left
+out of the prior (robustness suite, cc13a9a)."""
 
 FLAG_NOISE = (0.003, 1e-3)
 """Band error (`σ_rel`, floor) of the misfit that decides `unexplained`: the
 sharpest of `SIGMA_REL_GRID` with `SIGMA_FLOOR`, whatever band error the
 estimates use. With a relative band error σ a band the prior cannot produce
 at all adds only ~1/σ² to χ², so at the σ of 0.1 a fit may choose no pixel
-can ever exceed the held-out lamps' 99th percentile and the flag never fires;
+can ever exceed the held-out lamps' upper percentiles and the flag never fires;
 at 0.003 a pixel unlike every lamp stands far above any held-out lamp."""
 
 PHYSICAL_RANGE = {
@@ -2125,13 +2134,16 @@ def _global_probabilities(post, prior: LampPrior):
 def _probability_temperatures(known, novel, thr, row_lamp, lamps, l2):
     """Misfit-dependent temperatures ((value, slope) for level 1 and level 2,
     `calibration.fit_temperature`) of the type probabilities, fitted on the
-    held-out rows `known` (inner folds) and `novel` (classes held out), each
-    group class-balanced and weighing half (all, when `novel` is empty), and
-    the diagnostics: temperatures, ECE before/after per group, `unexplained`
-    rate per group at threshold `thr` (rows `(rows, lamps, level-1 probs,
-    level-2 probs, misfit, misfit at FLAG_NOISE)`). A lamp of a type the prior lacks is
-    fitted worse (a larger misfit) than one it knows, so a temperature that
-    grows with the misfit calibrates both groups better than one for all."""
+    held-out rows of known types `known` (inner folds, class-balanced), and
+    the diagnostics: temperatures, then per group (`known` and `novel`, the
+    rows of each training class held out in turn) the level-1 accuracy, ECE
+    before/after and the `unexplained` rate at threshold `thr` (rows
+    `(rows, lamps, level-1 probs, level-2 probs, misfit, misfit at
+    FLAG_NOISE)`). A lamp of a type the prior lacks can never be named: its
+    pixels are the `unexplained` flag's to catch, and fitting the temperature
+    on them too made the answers on known types under-confident (level-1 ECE
+    0.14 on held-out lamps, robustness suite at cc13a9a) without making
+    those on new types trustworthy (0.38)."""
     groups = {"known_types": known, "left_out_types": novel}
     data = {}
     for name, items in groups.items():
@@ -2149,21 +2161,19 @@ def _probability_temperatures(known, novel, thr, row_lamp, lamps, l2):
         )
     lab1 = np.array([LEVEL1.index(x) for x in lamps.level1])
     lab2 = np.array([GLOBAL_LEVEL2.index(x) for x in lamps.level2])
-    share = 1.0 / len(data)
-    rows = np.concatenate([d[0] for d in data.values()])
-    w = np.concatenate([d[1] * share for d in data.values()])
-    mis = np.concatenate([d[4] for d in data.values()])
+    rows, w, p1, p2, mis, _ = data["known_types"]
     fits = [
-        fit_temperature(
-            np.vstack([d[k] for d in data.values()]), lab[row_lamp[rows]], w, mis
-        )
-        for k, lab in ((2, lab1), (3, lab2))
+        fit_temperature(p, lab[row_lamp[rows]], w, mis)
+        for p, lab in ((p1, lab1), (p2, lab2))
     ]
     diag = {
         "calibrated": True,
-        "method": "temperature scaling fitted by the Brier score (bandopt.calibration)",
+        "method": "temperature scaling fitted by the Brier score on held-out "
+        "lamps of known types (bandopt.calibration)",
+        "fitted_on": "known_types",
         "level1": fits[0].to_dict(),
         "level2": fits[1].to_dict(),
+        "unexplained_false_flag_rate": 1.0 - UNEXPLAINED_QUANTILE,
         "groups": {},
     }
     for name, (r, wg, p1, _p2, m, m_flag) in data.items():

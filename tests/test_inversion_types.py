@@ -1,5 +1,5 @@
 """The inversion's type probabilities: calibrated by temperature on held-out
-lamps and held-out types (`fit_inversion(calibrate_probabilities=True)`), the
+lamps of known types (held-out types reported and left to the flag) (`fit_inversion(calibrate_probabilities=True)`), the
 top two named when the call is close, and NIR variants that share their
 lamp's prior mass (`lamp_prior`, `nir_variants`)."""
 
@@ -71,6 +71,21 @@ def test_calibration_diagnostics_cover_both_groups(fits):
     # the Brier score the temperature minimises does not get worse than T = 1
     assert d["level1"]["brier_after"] <= d["level1"]["brier_before"] + 1e-12
     assert fits[0].diagnostics["probabilities"] == {"calibrated": False}
+
+
+def test_temperature_is_fitted_on_known_types_only(fits):
+    """The temperature is the one fitted on the known types' held-out rows
+    alone (their row count), and the flag's threshold is the known rows'
+    weighted 95th percentile, so about 5 % of them are flagged."""
+    _, cal = fits
+    d = cal.diagnostics["probabilities"]
+    known = d["groups"]["known_types"]
+    assert d["fitted_on"] == "known_types"
+    assert d["level1"]["n_rows"] == known["rows"]
+    assert d["level1"]["n_rows"] < known["rows"] + d["groups"]["left_out_types"]["rows"]
+    rate = 1.0 - inv_mod.UNEXPLAINED_QUANTILE
+    assert d["unexplained_false_flag_rate"] == pytest.approx(rate)
+    assert known["unexplained_rate"] == pytest.approx(rate, abs=0.03)
 
 
 def test_left_out_types_cannot_be_named_so_they_soften_the_answer():
