@@ -426,6 +426,9 @@ def lamp_records(res, part: Partition, pl: PerturbedLamps, lamps, q: int) -> lis
             "level1_correct": float(np.mean(l1[sel] == lamps.level1[i])),
             "level2_correct": float(np.mean(l2[sel] == lamps.level2[i])),
             "unexplained": float(np.mean(res.unexplained[sel])),
+            "level1_answered_correct": _answered_right(
+                l1[sel], lamps.level1[i], res.unexplained[sel]
+            ),
             "level1_confidence": [
                 round(float(c), CONFIDENCE_DECIMALS) for c in p1[sel].max(axis=1)
             ],
@@ -437,6 +440,15 @@ def lamp_records(res, part: Partition, pl: PerturbedLamps, lamps, q: int) -> lis
         rec.update(pl.notes[j])
         out.append(rec)
     return out
+
+
+def _answered_right(predicted, truth: str, flagged) -> float | None:
+    """Share of a lamp's pixels not flagged `unexplained` whose level-1 type
+    is `truth` (None: every pixel flagged)."""
+    keep = ~np.asarray(flagged, bool)
+    if not keep.any():
+        return None
+    return float(np.mean(np.asarray(predicted, dtype=object)[keep] == truth))
 
 
 def _out_of_range_rows(est) -> np.ndarray:
@@ -608,7 +620,7 @@ WIDTH_COLUMNS = tuple(f"{m}_width_median" for m in inv_mod.METRICS)
 """Median 90 % interval width per metric: per partition the class-balanced
 weighted median over lamps of each lamp's median width. [lm/W], [1], [K]"""
 
-PAIRED = (*COLUMNS, *WIDTH_COLUMNS, "ECE")
+PAIRED = (*COLUMNS, *WIDTH_COLUMNS, "ECE", "level1_answered")
 """Columns whose perturbed-minus-clean difference is paired by partition."""
 
 
@@ -627,6 +639,18 @@ def partition_ece(recs) -> float:
         [np.full(r["rows"], wi / r["rows"]) for r, wi in zip(recs, w, strict=True)]
     )
     return expected_calibration_error(conf, right, pix)
+
+
+def partition_answered(recs) -> float | None:
+    """Class-balanced mean over lamps of level-1 right among the pixels not
+    flagged `unexplained` (lamps with every pixel flagged left out; None:
+    no lamp answered)."""
+    have = [r for r in recs if r.get("level1_answered_correct") is not None]
+    if not have:
+        return None
+    w = _weights(have)
+    vals = np.asarray([r["level1_answered_correct"] for r in have], float)
+    return float(np.sum(w * vals) / w.sum())
 
 
 def partition_width(recs, col: str) -> float | None:
@@ -706,7 +730,10 @@ def summarise(records: Sequence[dict], study: RobustnessStudy) -> dict:
             recs = [r for r in records if (r["band_set"], r["perturbation"]) == key]
             parts = sorted({r["partition"] for r in recs})
             by_p = [[r for r in recs if r["partition"] == p] for p in parts]
-            extra = {"ECE": [partition_ece(rp) for rp in by_p]}
+            extra = {
+                "ECE": [partition_ece(rp) for rp in by_p],
+                "level1_answered": [partition_answered(rp) for rp in by_p],
+            }
             for col in WIDTH_COLUMNS:
                 extra[col] = [partition_width(rp, col) for rp in by_p]
             for col, per in extra.items():

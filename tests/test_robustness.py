@@ -63,8 +63,10 @@ def test_records_have_their_fields_and_are_paired(run):
         assert {"partition", "band_set", "kind", "value", "lamp", "level1", "level2",
                 "rows", "out_of_range", "truth", "truth_clean", "level1_correct",
                 "level2_correct", "unexplained", "LER", "G", "LER_covered",
-                "LER_width_median", "level1_confidence",
-                "level1_top_right"} <= set(r)  # fmt: skip
+                "LER_width_median", "level1_confidence", "level1_top_right",
+                "level1_answered_correct"} <= set(r)  # fmt: skip
+        if r["unexplained"] == 0.0:  # every pixel answered
+            assert r["level1_answered_correct"] == pytest.approx(r["level1_correct"])
         assert r["rows"] == len(r["level1_confidence"]) == len(r["level1_top_right"])
         assert r["out_of_range"] == 0
     clean = [r for r in records if r["kind"] == "clean"]
@@ -104,6 +106,10 @@ def test_summary_maths(run):
         conf = np.concatenate([r["level1_confidence"] for r in recs])
         right = np.concatenate([r["level1_top_right"] for r in recs]).astype(bool)
         assert row["ECE"] == pytest.approx(expected_calibration_error(conf, right, pix))
+        ans = [r for r in recs if r["level1_answered_correct"] is not None]
+        wa = class_balanced_weights(np.asarray([r["level2"] for r in ans], object))
+        v = np.asarray([r["level1_answered_correct"] for r in ans], float)
+        assert row["level1_answered"] == pytest.approx(np.sum(wa * v) / wa.sum())
         lo = min(r["LER_width_median"] for r in recs)
         hi = max(r["LER_width_median"] for r in recs)
         assert lo <= row["LER_width_median"] <= hi
