@@ -188,3 +188,17 @@ def test_candidate_extensions_merge_their_top_two():
     assert out["level1_top2"]["close"]
     assert [t["type"] for t in out["level1_top2"]["types"]] == ["led", "fluorescent"]
     assert inv_mod.top_two({"a": 0.8, "b": 0.15, "c": 0.05})["close"] is False
+
+
+def test_evaluate_describes_the_calibration_it_has(fits):
+    """The JSON description names the known-type fit and the held-out types'
+    ECE and flag rate from the fit's own diagnostics."""
+    from bandopt.cli._cmd_evaluate import _probability_text
+
+    _, cal = fits
+    g = cal.diagnostics["probabilities"]["groups"]
+    text = _probability_text(cal)
+    assert "fitted on held-out lamps of known types" in text
+    assert f"ECE there {g['known_types']['ece_level1_after']:.2f}" in text
+    assert f"unexplained {g['left_out_types']['unexplained_rate']:.2f}" in text
+    assert "uncalibrated" in _probability_text(fits[0])

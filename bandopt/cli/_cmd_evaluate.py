@@ -547,15 +547,21 @@ def _probability_text(inv) -> str:
     if not d.get("calibrated"):
         return "; type probabilities: the posterior's, uncalibrated"
     g = d["groups"]
-    parts = ", ".join(
-        f"{name.replace('_', ' ')} {v['ece_level1_after']:.2f}" for name, v in g.items()
-    )
-    return (
+    known, novel = g["known_types"], g.get("left_out_types")
+    text = (
         "; type probabilities calibrated by a temperature that grows with the "
         f"pixel's misfit ({inv.level1_temperature:.3g} x misfit^"
-        f"{inv.temperature_slope[0]:.2f}), fitted on held-out lamps and "
-        f"held-out types (level-1 ECE there: {parts})"
+        f"{inv.temperature_slope[0]:.2f}), fitted on held-out lamps of known "
+        f"types (level-1 ECE there {known['ece_level1_after']:.2f}, "
+        f"unexplained {known['unexplained_rate']:.2f})"
     )
+    if novel is not None:
+        text += (
+            "; on library types held out in turn: ECE "
+            f"{novel['ece_level1_after']:.2f}, unexplained "
+            f"{novel['unexplained_rate']:.2f}"
+        )
+    return text
 
 
 def _with_own_lamps(always, own, grid):
