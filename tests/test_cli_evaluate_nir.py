@@ -107,3 +107,16 @@ def test_ambiguous_lamp_reports_candidates_and_union_intervals(tmp_path, capsys)
     for r in out["lamps"]:
         for m, (lo, hi) in r["interval90"].items():
             assert lo <= r["estimate"][m] <= hi
+    # the baselines flag what no library lamp looks like (issue 33, item 6)
+    assert out["lamps"][1]["unexplained"] is False
+    assert out["lamps"][1]["predicted_level1"] == "led"
+    line = _write_csv(
+        tmp_path / "line450.csv", w, np.exp(-0.5 * ((w - 450.0) / 2.0) ** 2)
+    )
+    argv = ["evaluate", "--bands", "sdgsat-1", "--lamps", str(line)]
+    assert main([*argv, "--estimator", "ridge", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    (row,) = out["lamps"]
+    assert row["unexplained"] is True and row["predicted_level1"] is None
+    assert "unexplained" in row["null_reasons"]["type"]
+    assert "bandopt.novelty" in out["scene"]["estimator_description"]

@@ -202,3 +202,25 @@ def test_evaluate_describes_the_calibration_it_has(fits):
     assert f"ECE there {g['known_types']['ece_level1_after']:.2f}" in text
     assert f"unexplained {g['left_out_types']['unexplained_rate']:.2f}" in text
     assert "uncalibrated" in _probability_text(fits[0])
+
+
+def test_merged_candidates_are_unexplained_only_when_every_one_is():
+    from bandopt.cli._cmd_evaluate import merge_candidates
+
+    def row(flag, l2):
+        return {
+            "interval90": {"LER": [100.0, 120.0]},
+            "level1_probabilities": {"led": 0.7, "hid": 0.3},
+            "predicted_level1": None if flag else "led",
+            "predicted_level2": None if flag else l2,
+            "null_reasons": {"type": "unexplained"} if flag else {},
+            "unexplained": flag,
+        }
+
+    both = merge_candidates([row(True, "led_cool"), row(True, "led_warm")])
+    assert both["unexplained"] and both["predicted_level1"] is None
+    assert both["predicted_level2"] is None
+    one = merge_candidates([row(True, "led_cool"), row(False, "led_warm")])
+    assert not one["unexplained"]
+    assert (one["predicted_level1"], one["predicted_level2"]) == ("led", "led_warm")
+    assert one["null_reasons"] == {}

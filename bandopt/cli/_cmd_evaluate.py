@@ -75,7 +75,8 @@ def register(subparsers):
         help="inversion (default): physics-based inversion with a prior over the "
         "measured library lamps, 90 %% intervals and an 'unexplained' flag; ridge / "
         "kernel: regression baselines on centred log band ratios, bounded to the "
-        "training range, with split-conformal 90 %% intervals; direct: no lamp "
+        "training range, with split-conformal 90 %% intervals and an 'unexplained' "
+        "flag for band ratios unlike every library lamp's; direct: no lamp "
         "library, the band values read as a spectrum once the surface is divided "
         "out, for contiguous bands tiling 380-780 nm and a known --surface "
         "(results/estimate_bands), with 90 %% intervals calibrated on the library "
@@ -312,10 +313,19 @@ def merge_candidates(rows: list[dict]) -> dict:
     """One lamp's result from its candidate extensions' rows (most likely
     first): that row, every 90 % interval widened to the union over the
     candidates, the level-1 probabilities averaged (the type from the
-    average)."""
+    average). `unexplained` only when every candidate is (some extension
+    explains the pixel otherwise; the types are then that candidate's), and
+    then no type is given."""
     out = dict(rows[0])
     if len(rows) == 1:
         return out
+    flags = [r.get("unexplained") for r in rows]
+    if None not in flags:
+        out["unexplained"] = all(flags)
+        if not out["unexplained"] and flags[0]:
+            first = rows[flags.index(False)]
+            for k in ("predicted_level1", "predicted_level2", "null_reasons"):
+                out[k] = first[k]
     out["interval90"] = {}
     for m, iv in (rows[0]["interval90"] or {}).items():
         ivs = [(r["interval90"] or {}).get(m) for r in rows]
@@ -331,6 +341,8 @@ def merge_candidates(rows: list[dict]) -> dict:
         out["level1_probabilities"] = avg
         out["predicted_level1"] = max(avg, key=avg.get)
         out["level1_top2"] = top_two(avg)
+    if out.get("unexplained"):  # flagged, not guessed
+        out["predicted_level1"] = out["predicted_level2"] = None
     return out
 
 
@@ -364,6 +376,7 @@ def _fit(args, ctx, bands, mode):
     from .. import inversion as inv_mod
     from ..direct import fit_direct
     from ..estimate import fit_estimator, fit_kernel_estimator
+    from ..novelty import fit_ratio_novelty
 
     if args.estimator == "direct":
         model = fit_direct(ctx, bands, mode)
@@ -496,13 +509,17 @@ def _fit(args, ctx, bands, mode):
     fit = fit_estimator if args.estimator == "ridge" else fit_kernel_estimator
     est = fit(rad, ctx.table, all_lamps, splits)
     q = _conformal_halfwidth(fit, rad, ctx)
+    novelty = fit_ratio_novelty(rad, ctx.table, all_lamps, splits)
     desc = (
         f"{args.estimator} regression on centred log band ratios trained on "
         f"{ctx.table.n_lamps} scored library lamps, bounded to their range; 90 % "
         "intervals: estimate +- the class-balanced 90 % quantile of held-out "
-        "lamps' |error| (split-conformal)"
+        "lamps' |error| (split-conformal); unexplained: band ratios farther "
+        "from every training pixel than the class-balanced "
+        f"{novelty.quantile:.0%} of held-out lamps' pixels are (bandopt.novelty), "
+        "and then no type is given"
     )
-    return (est, q), None, desc
+    return (est, q, novelty), None, desc
 
 
 def parse_prior_lamps(entries) -> list[tuple[str, str]]:
@@ -653,8 +670,10 @@ def _conformal_halfwidth(fit, rad, ctx):
     return q
 
 
-def _baseline_rows(est, q, rad):
-    """Bounded estimates and intervals of a regression baseline."""
+def _baseline_rows(est, q, novelty, rad):
+    """Bounded estimates and intervals of a regression baseline, each row
+    flagged `unexplained` where `novelty` (`novelty.RatioNovelty`) finds its
+    band ratios unlike every training pixel."""
     import numpy as np
 
     from ..estimate import METRICS, MIRED, MODEL_BOUNDS, to_model_space
@@ -663,6 +682,7 @@ def _baseline_rows(est, q, rad):
     model = np.asarray(to_model_space(pred))
     lo = np.clip(model - q, MODEL_BOUNDS[0], MODEL_BOUNDS[1])
     hi = np.clip(model + q, MODEL_BOUNDS[0], MODEL_BOUNDS[1])
+    flags = novelty.flags(rad)
     rows = []
     for i in range(pred.shape[0]):
         iv = {}
@@ -676,7 +696,7 @@ def _baseline_rows(est, q, rad):
                 "estimate": {n: float(pred[i, m]) for m, n in enumerate(METRICS)},
                 "interval90": iv,
                 "null_reasons": {},
-                "unexplained": None,
+                "unexplained": bool(flags[i]),
                 "level1_probabilities": None,
             }
         )
@@ -828,6 +848,12 @@ def run(args) -> int:
             est_rows = _baseline_rows(*model, band_rad)
             level1, level2 = predict_lamp_types(band_rad, bands)
             for r, l1, l2 in zip(est_rows, level1, level2, strict=True):
+                if r["unexplained"]:  # flagged, not guessed
+                    l1 = l2 = None
+                    r["null_reasons"]["type"] = (
+                        "unexplained: its band ratios are unlike every "
+                        "library lamp's"
+                    )
                 r["predicted_level1"], r["predicted_level2"] = l1, l2
     owner = np.asarray(owner)
     est_rows = [
