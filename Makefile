@@ -11,7 +11,10 @@ SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 .PHONY: run test test-slow lint bench atmospheres surfaces library lamp-models ler \
         g cct sweep compare classify classify-partitions radiometry spatial \
         noise-aware estimate estimate-moon estimate-mix estimate-noise estimate-intervals estimate-shift estimate-planck estimate-defaults estimate-library estimate-tm30 estimate-bands external-tm30 unseen-ceiling robustness \
-        before-after report check-report docs tutorial clean
+        before-after report check-report docs tutorial clean help
+
+help:  ## list the targets and what they do
+	@grep -E '^[a-zA-Z0-9_.-]+:.*## ' $(MAKEFILE_LIST) | sed -E 's/^([^:]+):[^#]*## /\1: /'
 
 $(STAMP): pyproject.toml requirements.lock
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
