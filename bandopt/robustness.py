@@ -43,7 +43,7 @@ import numpy as np
 from . import inversion as inv_mod, perturb
 from .calibration import expected_calibration_error, reliability_curve
 from .datasets.technology import extend_user_spectrum
-from .estimate import lamp_truth
+from .estimate import METRICS, lamp_truth
 from .evaluator import InversionConfig, fit_on_context
 from .folds import class_balanced_weights
 from .forward import dense_spectra
@@ -385,7 +385,7 @@ are 0.1 wide: only a value within 5e-5 of a bin edge can change bin)."""
 
 def _median_widths(iv, valid) -> dict:
     out = {}
-    for m, name in enumerate(inv_mod.METRICS):
+    for m, name in enumerate(METRICS):
         if valid[m]:
             out[f"{name}_width_median"] = float(np.median(iv[:, m, 1] - iv[:, m, 0]))
     return out
@@ -393,7 +393,7 @@ def _median_widths(iv, valid) -> dict:
 
 def _coverage(iv, truth, valid) -> dict:
     out = {}
-    for m, name in enumerate(inv_mod.METRICS):
+    for m, name in enumerate(METRICS):
         if valid[m]:
             hit = (iv[:, m, 0] <= truth[m]) & (truth[m] <= iv[:, m, 1])
             out[f"{name}_covered"] = float(np.mean(hit))
@@ -454,7 +454,7 @@ def _answered_right(predicted, truth: str, flagged) -> float | None:
 def _out_of_range_rows(est) -> np.ndarray:
     """Per row: an estimate outside `inversion.PHYSICAL_RANGE` (a null CCT is
     allowed, a null LER or G is not)."""
-    lo, hi = np.asarray([inv_mod.PHYSICAL_RANGE[m] for m in inv_mod.METRICS]).T
+    lo, hi = np.asarray([inv_mod.PHYSICAL_RANGE[m] for m in METRICS]).T
     fin = np.isfinite(est)
     outside = fin & ((est < lo) | (est > hi))
     return outside.any(axis=1) | ~fin[:, :2].all(axis=1)
@@ -616,7 +616,7 @@ COLUMNS = (
 """Columns of `inversion.summarise` a row reports (class-balanced means over
 held-out lamps per partition; MAE for LER [lm/W], G [1], CCT [K])."""
 
-WIDTH_COLUMNS = tuple(f"{m}_width_median" for m in inv_mod.METRICS)
+WIDTH_COLUMNS = tuple(f"{m}_width_median" for m in METRICS)
 """Median 90 % interval width per metric: per partition the class-balanced
 weighted median over lamps of each lamp's median width. [lm/W], [1], [K]"""
 

@@ -38,5 +38,8 @@ exclude_patterns = ["_build"]
 suppress_warnings = ["autodoc.import_object"]
 # the docstrings use single backticks for names (`wavelength_nm`): show them as code
 default_role = "code"
-# docstrings write |Duv| (the absolute value), which reST reads as a substitution
-rst_prolog = ".. |Duv| replace:: abs(Duv)\n"
+# docstrings write |Duv|, |y|, |error| (absolute values), which reST reads as
+# substitutions
+rst_prolog = "".join(
+    f".. |{name}| replace:: abs({name})\n" for name in ("Duv", "y", "error")
+)

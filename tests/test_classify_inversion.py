@@ -24,6 +24,7 @@ from bandopt.classify import (
 from bandopt.datasets.lamps import LEVEL2_PARENT, library
 from bandopt.scene import build_scenarios
 from bandopt.sensor import load_band_set
+from tests._inversion import patch_inversion
 
 
 LAMPS_PER_CLASS = 4
@@ -322,7 +323,7 @@ def test_mixtures_reach_every_fold_and_the_config(table, bands, monkeypatch):
         seen.append((kw["mixtures"], inv.diagnostics["mixtures"]["n"]))
         return inv
 
-    monkeypatch.setattr(inv_mod, "fit_inversion", spy)
+    patch_inversion(monkeypatch, "fit_inversion", spy)
     res = evaluate_band_set(table, bands, noise=True, estimator="inversion", mixtures=2)
     assert res.config["mixtures"] == 2
     assert len(seen) == 3 and all(m == 2 and n > 0 for m, n in seen)
@@ -344,7 +345,7 @@ def test_planck_and_shifts_reach_every_fold_and_the_config(table, bands, monkeyp
         seen.append((kw["peak_shifts"], inv.prior.ids))
         return inv
 
-    monkeypatch.setattr(inv_mod, "fit_inversion", spy)
+    patch_inversion(monkeypatch, "fit_inversion", spy)
     res = evaluate_band_set(
         table, bands, noise=True, estimator="inversion", planck=True,
         peak_shifts=(-5.0, 5.0),

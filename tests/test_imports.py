@@ -199,7 +199,31 @@ LAYERS = [
     ("bandopt.datasets.nir", "bandopt.datasets.lamps"),
     ("bandopt.datasets._lamp_sources", "bandopt.datasets.nir"),
     ("bandopt.datasets._lamp_sources", "bandopt.datasets.lamps"),
+    # the inversion is an estimator the search, classification and evaluation use
+    ("bandopt.inversion", "bandopt.search"),
+    ("bandopt.inversion", "bandopt.classify"),
+    ("bandopt.inversion", "bandopt.evaluator"),
 ]
+
+INVERSION_FLOORS = (
+    "_conditions",
+    "_surfaces",
+    "_lamps",
+    "_variants",
+    "_prior",
+    "_scoring",
+    "_metrics",
+    "_model",
+    "_calibrate",
+    "_fit",
+    "_estimators",
+    "_context",
+    "_crossval",
+    "_leave_class_out",
+    "_summary",
+)
+"""The modules of `bandopt.inversion`, lowest first: each imports only modules
+before it (its `__init__` re-exports them all)."""
 
 
 def _files_of(module: str) -> list[Path]:
@@ -270,3 +294,47 @@ def test_lower_layers_do_not_import_higher_ones(lower, higher):
     )
     assert p.returncode == 0, p.stderr
     assert p.stdout.strip() == "[]", f"importing {lower} loads {p.stdout.strip()}"
+
+
+def upward_imports(
+    source: str, module: tuple[str, ...], floors: tuple[str, ...]
+) -> list[tuple[int, str]]:
+    """`(line, sibling)` for every import in `source` (at any depth) of a
+    module of `module`'s package that is not below it in `floors`."""
+    package, own = module[:-1], module[-1]
+    below = set(floors[: floors.index(own)])
+    bad = []
+    for line, target, names in imports(source, module, False):
+        if target[: len(package)] != package:
+            continue
+        rest = target[len(package) :]
+        siblings = [rest[0]] if rest else [n for n in names if n in floors]
+        bad += [(line, s) for s in siblings if s not in below]
+    return bad
+
+
+@pytest.mark.parametrize(
+    ("source", "expected"),
+    [
+        ("from ._fit import fit_inversion\n", [(1, "_fit")]),
+        ("def f():\n    from ._crossval import cross_validate\n", [(2, "_crossval")]),
+        ("from . import _model, _lamps\n", [(1, "_model")]),
+        ("import bandopt.inversion._summary\n", [(1, "_summary")]),
+        ("from ._lamps import LampSet\nfrom ..estimate import METRICS\n", []),
+    ],
+)
+def test_the_floor_check_can_fail(source, expected):
+    module = ("bandopt", "inversion", "_metrics")
+    assert upward_imports(source, module, INVERSION_FLOORS) == expected
+
+
+def test_inversion_modules_import_only_lower_floors():
+    folder = PACKAGE / "inversion"
+    found = sorted(p.stem for p in folder.glob("*.py") if p.name != "__init__.py")
+    assert found == sorted(INVERSION_FLOORS), "place every module in INVERSION_FLOORS"
+    bad = []
+    for name in INVERSION_FLOORS:
+        path = folder / f"{name}.py"
+        found = upward_imports(path.read_text(), _module_name(path), INVERSION_FLOORS)
+        bad += [f"{path.relative_to(PACKAGE.parent)}:{n} imports {s}" for n, s in found]
+    assert not bad, "an inversion module imports one above it: " + ", ".join(bad)

@@ -2,6 +2,8 @@
 self-consistency on prior lamps, brightness invariance, physical bounds on any
 input (hypothesis), the Sentinel-2 surface path, reject and calibration."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
@@ -9,6 +11,7 @@ from scipy.optimize import nnls
 
 from bandopt import inversion as inv_mod
 from bandopt.datasets import surfaces
+from bandopt.estimate import METRICS, lamp_truth
 from bandopt.sensor import BandSet
 
 
@@ -82,7 +85,7 @@ def test_prior_lamp_is_recovered_and_brightness_free(lamps, basis):
         assert misfit[row] < 1e-8
         assert res.level2[row] == lamps.level2[i]
         assert res.level1[row] == lamps.level1[i]
-    truth, valid = inv_mod.lamp_truth(lamps.spectra[picks], GRID)
+    truth, valid = lamp_truth(lamps.spectra[picks], GRID)
     ok = valid[:, 0]
     np.testing.assert_allclose(res.estimate[ok, 0], truth[ok, 0], rtol=0.15)
 
@@ -99,7 +102,7 @@ def test_estimates_never_leave_physical_range(lamps, basis, centres, fwhm, seed,
     inv = inv_mod.build_inversion(
         lamps, _weights(bands), inv_mod.Conditions.clear(GRID), basis, sigma_rel=sigma
     )
-    inv = inv_mod.dataclasses.replace(inv, conformal=np.array([3.0, 3.0, 3.0]))
+    inv = dataclasses.replace(inv, conformal=np.array([3.0, 3.0, 3.0]))
     rng = np.random.default_rng(seed)
     y = np.vstack(
         [
@@ -109,7 +112,7 @@ def test_estimates_never_leave_physical_range(lamps, basis, centres, fwhm, seed,
         ]
     )
     res = inv.predict(y)
-    for m, name in enumerate(inv_mod.METRICS):
+    for m, name in enumerate(METRICS):
         lo, hi = inv_mod.PHYSICAL_RANGE[name]
         e, iv = res.estimate[:, m], res.interval90[:, m]
         fin = np.isfinite(e)

@@ -10,6 +10,7 @@ import pytest
 from bandopt import inversion as inv_mod
 from bandopt.estimate import lamp_truth
 from tests._bands import FIVE, GRID
+from tests._inversion import patch_inversion
 from tests.test_inversion_models import _case, _fake_context
 
 
@@ -34,7 +35,7 @@ def pair(case):
 
     by_lamps = inv_mod.fit_inversion(rad, row_lamp, lamps, train, inner, w, cond, **kw)
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(inv_mod, "build_inversion", spy)
+        patch_inversion(mp, "build_inversion", spy)
         by_classes = inv_mod.fit_inversion(
             rad, row_lamp, lamps, train, inner, w, cond, calibration="classes", **kw
         )
@@ -119,8 +120,8 @@ def test_bad_calibration_is_refused(case):
 def test_cross_validate_runs_the_loco_estimator(case, monkeypatch):
     lamps, row_lamp, *_ = case
     setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
-    monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
-    monkeypatch.setattr(inv_mod, "context_moon", lambda c: np.zeros(len(row_lamp)))
+    patch_inversion(monkeypatch, "context_setup", lambda c: setup)
+    patch_inversion(monkeypatch, "context_moon", lambda c: np.zeros(len(row_lamp)))
     recs = inv_mod.cross_validate(
         _fake_context(case),
         FIVE,

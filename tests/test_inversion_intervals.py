@@ -8,7 +8,10 @@ import numpy as np
 import pytest
 
 from bandopt import inversion as inv_mod
+from bandopt.estimate import METRICS, MIRED
+from bandopt.photometry import K_M_LM_PER_W
 from tests._bands import FIVE, GRID
+from tests._inversion import patch_inversion
 from tests.test_inversion_models import _case, _fake_context
 
 
@@ -110,7 +113,7 @@ def test_offsets_change_the_intervals_only(case, fits):
     d = narrow.diagnostics
     cands = d["interval_candidates"]
     assert set(cands) == {f"{f:g}" for f in inv_mod.INTERVAL_OFFSET_GRID}
-    for m, name in enumerate(inv_mod.METRICS):
+    for m, name in enumerate(METRICS):
         chosen = f"{d['interval_offset'][name]:g}"
         widths = {k: c["mean_width"][name] for k, c in cands.items()}
         assert widths[chosen] == min(widths.values())
@@ -121,7 +124,7 @@ def test_offsets_change_the_intervals_only(case, fits):
     _mean, rng, _ = inv_mod._posterior_metrics(post, narrow.prior)
     half = np.maximum((rng[..., 1] - rng[..., 0]) / 2, inv_mod.INTERVAL_FLOOR)
     lo = np.clip(rng[:, 0, 0] - narrow.conformal[0] * (half[:, 0] + narrow.offsets[0]),
-                 0.0, inv_mod.K_M_LM_PER_W)  # fmt: skip
+                 0.0, K_M_LM_PER_W)  # fmt: skip
     np.testing.assert_allclose(b.interval90[:, 0, 0], np.minimum(lo, b.estimate[:, 0]))
 
 
@@ -151,8 +154,8 @@ def test_cross_validate_scores_both_intervals_from_one_fit(case, monkeypatch):
     narrow fit at offset 0: records identical to its own fit's."""
     lamps, row_lamp, *_ = case
     setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
-    monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
-    monkeypatch.setattr(inv_mod, "context_moon", lambda c: np.zeros(len(row_lamp)))
+    patch_inversion(monkeypatch, "context_setup", lambda c: setup)
+    patch_inversion(monkeypatch, "context_moon", lambda c: np.zeros(len(row_lamp)))
     fitted = []
     real = inv_mod.fit_inversion
 
@@ -160,7 +163,7 @@ def test_cross_validate_scores_both_intervals_from_one_fit(case, monkeypatch):
         fitted.append(tuple(kw["interval_offsets"]))
         return real(*a, **kw)
 
-    monkeypatch.setattr(inv_mod, "fit_inversion", spy)
+    patch_inversion(monkeypatch, "fit_inversion", spy)
     ctx = _fake_context(case)
     base, narrow = inv_mod.MIX_METRIC_ESTIMATOR, inv_mod.NARROW_ESTIMATOR
     both = inv_mod.cross_validate(ctx, FIVE, estimators=(base, narrow), folds=[0])
@@ -182,7 +185,7 @@ def _reference_metrics(post, prior, m):
     t = prior.truth[:, m].copy()
     ok = prior.valid[:, m]
     if m == 2:
-        t = np.where(ok, inv_mod.MIRED / np.where(ok, t, 1.0), 0.0)
+        t = np.where(ok, MIRED / np.where(ok, t, 1.0), 0.0)
     w = post * ok[None]
     w = w / np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
     vals = np.where(ok, t, 0.0)
@@ -195,7 +198,7 @@ def test_compiled_posterior_summary_is_the_weighted_quantile_rule(rows, monkeypa
     """Random posteriors (sharp and flat, one with no valid mass) over a prior
     with invalid entries and tied values; more rows than a compiled call
     takes (`METRIC_ROWS` patched to 16: padding and chunks)."""
-    monkeypatch.setattr(inv_mod, "METRIC_ROWS", 16)
+    patch_inversion(monkeypatch, "METRIC_ROWS", 16)
     rng = np.random.default_rng(3)
     k = 29
     truth = np.column_stack(

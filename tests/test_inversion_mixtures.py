@@ -12,6 +12,7 @@ from bandopt import inversion as inv_mod
 from bandopt.estimate import lamp_truth
 from bandopt.photometry import ler
 from tests._bands import GRID
+from tests._inversion import patch_inversion
 from tests.test_inversion_models import _case, _pixels
 
 
@@ -125,7 +126,7 @@ def spy_priors(monkeypatch) -> list:
         built.append(pset.ids)
         return real(pset, *a, **k)
 
-    monkeypatch.setattr(inv_mod, "build_inversion", spy)
+    patch_inversion(monkeypatch, "build_inversion", spy)
     return built
 
 
@@ -170,6 +171,6 @@ def test_large_priors_score_in_smaller_chunks_with_the_same_numbers(case):
     )
     ref = inv.posterior(rad[:40])[0]
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(inv_mod, "CHUNK_PRIOR", 1)
+        patch_inversion(mp, "CHUNK_PRIOR", 1)
         small = inv.posterior(rad[:40])[0]
     np.testing.assert_allclose(small, ref, rtol=1e-10, atol=1e-14)

@@ -7,6 +7,7 @@ lamps, pixels on asphalt and grass without atmosphere, one test lamp per
 class; only the mercury model is sampled (its 4 lamps fit in ~10 s, once per
 process)."""
 
+import dataclasses
 import types
 
 import numpy as np
@@ -16,6 +17,7 @@ from bandopt import inversion as inv_mod, lampmodels
 from bandopt.datasets import surfaces
 from bandopt.folds import stratified_lamp_folds
 from tests._bands import FIVE, GRID
+from tests._inversion import patch_inversion
 
 
 CLASSES = ("hps", "led_warm", "led_cool", "fluorescent_linear", "mercury")
@@ -190,7 +192,7 @@ def test_modelled_class_gets_posterior_mass_for_a_lamp_of_that_class(case, fits)
     # their training lamps: at 0.1 the share ranged 2e-7 to 5e-3)
     assert np.all(mass[:, 0] > 0.0) and np.all(mass[:, 1] > 0.05), mass
     for sigma in (0.1, 0.3):
-        res = inv_mod.dataclasses.replace(models, sigma_rel=sigma).predict(rad[rows])
+        res = dataclasses.replace(models, sigma_rel=sigma).predict(rad[rows])
         hid = res.level1_labels.index(lamps.level1[hg])
         assert np.all(res.level1_probabilities[:, hid] > 0.0)
         l2 = res.level2_labels.index("mercury")
@@ -231,9 +233,9 @@ def patch_case(monkeypatch, case, *, moon=True):
     brightness per row (`context_moon`)."""
     lamps, row_lamp, *_ = case
     setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
-    monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
+    patch_inversion(monkeypatch, "context_setup", lambda c: setup)
     if moon:
-        monkeypatch.setattr(inv_mod, "context_moon", lambda c: np.zeros(len(row_lamp)))
+        patch_inversion(monkeypatch, "context_moon", lambda c: np.zeros(len(row_lamp)))
 
 
 class StopAtFitError(Exception):
@@ -251,9 +253,9 @@ def stop_at_fit(monkeypatch, case) -> tuple[object, dict]:
         raise StopAtFitError
 
     patch_case(monkeypatch, case)
-    monkeypatch.setattr(inv_mod, "fit_inversion", fake_fit)
+    patch_inversion(monkeypatch, "fit_inversion", fake_fit)
     basis = inv_mod._basis(GRID)
-    monkeypatch.setattr(inv_mod, "surface_basis", lambda grid: basis)
+    patch_inversion(monkeypatch, "surface_basis", lambda grid: basis)
     ctx = _fake_context(case)
     ctx.table.n_lamps = len(case[0].ids)
     return ctx, seen
@@ -277,7 +279,7 @@ def test_cross_validate_scores_measured_lamps_only_and_says_so(case, monkeypatch
     lamps, row_lamp, *_ = case
     ctx = _fake_context(case)
     setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
-    monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
+    patch_inversion(monkeypatch, "context_setup", lambda c: setup)
     kw = dict(folds=[0], modelled_classes=MODELLED)
     recs = inv_mod.cross_validate(
         ctx,
@@ -388,14 +390,14 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
         )
 
     setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
-    monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
-    monkeypatch.setattr(inv_mod, "fit_inversion", fake_fit)
+    patch_inversion(monkeypatch, "context_setup", lambda c: setup)
+    patch_inversion(monkeypatch, "fit_inversion", fake_fit)
     # what the stub ignores: the surface prior and the Sentinel-2 retrieval
     basis = inv_mod._basis(GRID)  # computed before the patch: no recursion
-    monkeypatch.setattr(inv_mod, "surface_basis", lambda grid: basis)
-    monkeypatch.setattr(inv_mod, "measured_surfaces", lambda *a, **k: None)
+    patch_inversion(monkeypatch, "surface_basis", lambda grid: basis)
+    patch_inversion(monkeypatch, "measured_surfaces", lambda *a, **k: None)
     moon = np.zeros(len(row_lamp))  # the fake context's rows are moonless
-    monkeypatch.setattr(inv_mod, "context_moon", lambda c: moon)
+    patch_inversion(monkeypatch, "context_moon", lambda c: moon)
     ctx = _fake_context(case)
     ctx.table.n_lamps = len(lamps.ids)
     from bandopt.spectra import GRID_1NM
@@ -551,7 +553,7 @@ def test_unseen_class_never_gets_a_model_of_itself(case, monkeypatch):
     (its lamps are not training lamps), every other modelled class is."""
     lamps, row_lamp, *_ = case
     setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
-    monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
+    patch_inversion(monkeypatch, "context_setup", lambda c: setup)
     recs = inv_mod.leave_one_class_out(
         _fake_context(case), FIVE, modelled_per_class=2, modelled_classes=("mercury",)
     )

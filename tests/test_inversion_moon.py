@@ -9,8 +9,10 @@ import numpy as np
 import pytest
 
 from bandopt import inversion as inv_mod
+from bandopt.forward import dense_spectra
 from bandopt.scene import build_scenarios
 from tests._bands import FIVE, GRID
+from tests._inversion import patch_inversion
 
 
 def test_known_amplitude_misfit_is_least_squares_with_the_moon_subtracted():
@@ -43,7 +45,7 @@ def moonlit():
     rows, moon, types = [], [], []
     for i, name in enumerate(("asphalt", "grass")):
         lit = scen.with_lamps(list(lamps.ids[:8]), lamps.spectra[:8])
-        toa = np.asarray(inv_mod.dense_spectra(lit))[:, i, 0]  # (l, m, c, w)
+        toa = np.asarray(dense_spectra(lit))[:, i, 0]  # (l, m, c, w)
         for j, m in enumerate((0.0, 1.0)):
             rows.append(toa[:, j, 0] @ w.T)
             moon += [m] * 8
@@ -132,7 +134,7 @@ def test_cross_validate_tells_the_moon_only_to_inversion_moon(moon_ctx, monkeypa
         seen.append(kw.get("row_moon"))
         return real(*a, **kw)
 
-    monkeypatch.setattr(inv_mod, "fit_inversion", spy)
+    patch_inversion(monkeypatch, "fit_inversion", spy)
     recs = inv_mod.cross_validate(
         moon_ctx, FIVE, estimators=("inversion", inv_mod.MOON_ESTIMATOR), folds=[0]
     )
@@ -159,7 +161,7 @@ def test_cross_validate_tells_the_moon_only_to_inversion_moon(moon_ctx, monkeypa
         seen.append(kw.get("row_moon"))
         raise StopError
 
-    monkeypatch.setattr(inv_mod, "fit_inversion", stop)
+    patch_inversion(monkeypatch, "fit_inversion", stop)
     with pytest.raises(StopError):
         inv_mod.leave_one_class_out(moon_ctx, FIVE, moon_known=True)
     np.testing.assert_array_equal(seen[-1], inv_mod.context_moon(moon_ctx))
@@ -234,7 +236,7 @@ def test_classifier_told_the_moon_fits_and_predicts_with_table_moon(
         raise StopError
 
     real_fit = inv_mod.fit_inversion
-    monkeypatch.setattr(inv_mod, "fit_inversion", fit_spy)
+    patch_inversion(monkeypatch, "fit_inversion", fit_spy)
     monkeypatch.setattr(inv_mod.Inversion, "predict", predict_spy)
     bands = load_band_set("sdgsat-1")
     with pytest.raises(StopError):

@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 
 from bandopt import inversion as inv_mod
+from bandopt.estimate import lamp_truth
 from tests._bands import FIVE, GRID
+from tests._inversion import patch_inversion
 from tests.test_inversion_mixtures import spy_priors
 from tests.test_inversion_models import _case, _fake_context, _pixels, patch_case
 
@@ -47,8 +49,8 @@ def halogen_case():
 def _unseen(halogen_case, monkeypatch, planck):
     lamps, row_lamp, rad, _ = halogen_case
     setup = (lamps, None, inv_mod.Conditions.clear(GRID), ["asphalt"] * len(row_lamp))
-    monkeypatch.setattr(inv_mod, "context_setup", lambda c: setup)
-    truth, valid = inv_mod.lamp_truth(lamps.spectra, GRID)
+    patch_inversion(monkeypatch, "context_setup", lambda c: setup)
+    truth, valid = lamp_truth(lamps.spectra, GRID)
     import types
 
     ctx = types.SimpleNamespace(

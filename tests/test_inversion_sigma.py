@@ -7,6 +7,7 @@ import pytest
 
 from bandopt import inversion as inv_mod
 from bandopt.datasets import surfaces
+from bandopt.estimate import METRICS
 from bandopt.folds import stratified_lamp_folds
 from tests._bands import FIVE, GRID
 
@@ -163,9 +164,9 @@ def test_per_metric_rule_picks_each_metrics_best_sigma_on_inner_folds(case):
     pm = d["inner_scores_per_metric"]
     for s in SIGMAS:  # the joint score is the sum of the metrics' scores
         assert sum(pm[str(s)].values()) == pytest.approx(d["inner_scores"][str(s)])
-    want = tuple(min(SIGMAS, key=lambda s: pm[str(s)][m]) for m in inv_mod.METRICS)
+    want = tuple(min(SIGMAS, key=lambda s: pm[str(s)][m]) for m in METRICS)
     assert per.metric_sigma == want
-    assert d["metric_sigma"] == dict(zip(inv_mod.METRICS, want, strict=True))
+    assert d["metric_sigma"] == dict(zip(METRICS, want, strict=True))
     # types, flag threshold and σ_rel are the one-σ rule's
     assert per.sigma_rel == by_err.sigma_rel
     assert per.threshold == by_err.threshold

@@ -1,0 +1,344 @@
+"""The fitted inversion: `Inversion` (prior, surface basis, conditions and the
+band-error model chosen on inner folds) with its posterior and `predict`,
+`build_inversion` to build one on a lamp set, and the per-pixel
+`InversionResult` (estimates, intervals, type probabilities, flags)."""
+
+import dataclasses
+
+import jax.numpy as jnp
+import numpy as np
+
+from ..calibration import MISFIT_FLOOR, temper
+from ..datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT
+from ..estimate import METRICS, MIRED
+from ._conditions import Conditions
+from ._lamps import LampSet
+from ._metrics import _metrics_per_posterior, _widened
+from ._prior import LampPrior, lamp_prior
+from ._scoring import SIGMA_FLOOR, _design, _normalise, _score, log_evidence
+from ._surfaces import SURFACE_MODES, SurfaceBasis, surface_candidates
+
+
+CLOSE_CALL_RATIO = 0.5
+"""A level-1 call is close when the second type is at least this fraction as
+probable as the first (e.g. 0.6 against 0.3): the answer names both."""
+
+
+def top_two(probabilities: dict) -> dict:
+    """The two most probable types of `{type: probability}` (ties in the
+    given order) and whether the call is close (`CLOSE_CALL_RATIO`): then
+    both are answers a user should weigh."""
+    order = sorted(probabilities, key=lambda k: -probabilities[k])[:2]
+    pair = [{"type": k, "probability": float(probabilities[k])} for k in order]
+    close = len(pair) == 2 and pair[1]["probability"] >= CLOSE_CALL_RATIO * max(
+        pair[0]["probability"], 1e-300
+    )
+    return {"types": pair, "close": bool(close)}
+
+
+@dataclasses.dataclass(frozen=True)
+class InversionResult:
+    """Per pixel: `estimate` (n, 3) [lm W⁻¹], [1], [K] (CCT NaN where not
+    meaningful), `interval90` (n, 3, 2), `cct_probability` (P(CCT meaningful)),
+    `unexplained` (n,), `misfit` (reduced χ², n), level-1/-2 probabilities
+    with their labels, and the predicted types (None where unexplained)."""
+
+    estimate: np.ndarray
+    interval90: np.ndarray
+    cct_probability: np.ndarray
+    unexplained: np.ndarray
+    misfit: np.ndarray
+    level1_labels: tuple[str, ...]
+    level1_probabilities: np.ndarray
+    level2_labels: tuple[str, ...]
+    level2_probabilities: np.ndarray
+    level1: tuple[str | None, ...]
+    level2: tuple[str | None, ...]
+    testable: bool
+
+    def row(self, i: int) -> dict:
+        """JSON-ready result of pixel `i`: metrics null with a reason where they
+        cannot be estimated, never outside `PHYSICAL_RANGE`."""
+        est, reasons, iv = {}, {}, {}
+        for m, name in enumerate(METRICS):
+            v = float(self.estimate[i, m])
+            lo, hi = (float(x) for x in self.interval90[i, m])
+            if self.unexplained[i]:
+                est[name], iv[name] = None, None
+                reasons[name] = "unexplained: no lamp of the prior fits this pixel"
+            elif not np.isfinite(v):
+                est[name], iv[name] = None, None
+                reasons[name] = (
+                    "no meaningful CCT: the posterior favours lamps whose "
+                    f"chromaticity is > 0.05 Duv off the Planckian locus "
+                    f"(P(meaningful) = {self.cct_probability[i]:.2f})"
+                )
+            else:
+                est[name], iv[name] = v, [lo, hi]
+        return {
+            "estimate": est,
+            "interval90": iv,
+            "null_reasons": reasons,
+            "unexplained": bool(self.unexplained[i]),
+            "misfit_reduced_chi2": float(self.misfit[i]),
+            "level1_probabilities": {
+                k: float(p)
+                for k, p in zip(
+                    self.level1_labels, self.level1_probabilities[i], strict=True
+                )
+            },
+            "predicted_level1": self.level1[i],
+            "predicted_level2": self.level2[i],
+            "level1_top2": self.top2(i),
+        }
+
+    def top2(self, i: int) -> dict:
+        """`top_two` of pixel `i`'s level-1 probabilities."""
+        return top_two(
+            dict(zip(self.level1_labels, self.level1_probabilities[i], strict=True))
+        )
+
+
+@dataclasses.dataclass(frozen=True)
+class Inversion:
+    """A fitted inversion for one band set (see the module docstring)."""
+
+    prior: LampPrior
+    basis: SurfaceBasis
+    conditions: Conditions
+    weights: np.ndarray
+    design: tuple
+    surface_mode: str
+    sigma_rel: float
+    conformal: np.ndarray
+    threshold: float
+    diagnostics: dict
+    metric_sigma: tuple[float, ...] = ()
+    sigma_floor: float = SIGMA_FLOOR
+    metric_floor: tuple[float, ...] = ()
+    interval_offset: tuple[float, ...] = ()
+    level1_temperature: float = 1.0
+    level2_temperature: float = 1.0
+    temperature_slope: tuple[float, float] = (0.0, 0.0)
+    flag_noise: tuple[float, float] | None = None
+
+    @property
+    def offsets(self) -> np.ndarray:
+        """Offset added to each metric's posterior half-width before conformal
+        scaling (3,), model space (`fit_inversion(interval_offsets=)`; zeros
+        by default)."""
+        return np.asarray(self.interval_offset or (0.0,) * 3, float)
+
+    def with_interval_offset(self, fraction: float) -> "Inversion":
+        """This inversion with the intervals of one candidate offset of its
+        fit's `interval_offsets` (a fraction of each metric's spread) for all
+        three metrics: same posterior and estimates, the conformal factors
+        calibrated for that offset on the same held-out lamps."""
+        cands = self.diagnostics.get("interval_candidates", {})
+        key = f"{float(fraction):g}"
+        if key not in cands:
+            raise ValueError(
+                f"interval offset {fraction!r}: this fit calibrated only "
+                f"{sorted(cands, key=float)} (fit_inversion(interval_offsets=))."
+            )
+        c = cands[key]
+        return dataclasses.replace(
+            self,
+            conformal=np.array([c["conformal"][m] for m in METRICS]),
+            interval_offset=tuple(float(c["offset"][m]) for m in METRICS),
+        )
+
+    @property
+    def metric_sigmas(self) -> tuple[float, float, float]:
+        """`σ_rel` of each metric's estimate and interval (`METRICS` order):
+        `metric_sigma` when set (`fit_inversion(sigma_rule="per-metric")`),
+        else `sigma_rel` for all three."""
+        if not self.metric_sigma:
+            return (self.sigma_rel,) * 3
+        return tuple(float(x) for x in self.metric_sigma)
+
+    @property
+    def metric_noise(self) -> tuple[tuple[float, float], ...]:
+        """(`σ_rel`, floor) of each metric's estimate and interval."""
+        floors = self.metric_floor or (self.sigma_floor,) * 3
+        return tuple(
+            (s, float(f)) for s, f in zip(self.metric_sigmas, floors, strict=True)
+        )
+
+    @property
+    def n_bands(self) -> int:
+        return int(self.weights.shape[0])
+
+    def _dof(self) -> int:
+        return self.n_bands - (1 if self.conditions.moon is None else 2)
+
+    def candidates(self, n: int, surface=None):
+        """Surface candidates `(n, s, r+1)` and their log prior `(n, s)`.
+
+        `surface`: None (mode 'unknown'), a sequence of n type names (mode
+        'class'), or basis coefficients (n, r) (mode 'measured')."""
+        return surface_candidates(self.basis, self.surface_mode, n, surface)
+
+    def posterior(
+        self,
+        radiance,
+        surface=None,
+        sigmas=None,
+        *,
+        evidence=False,
+        moon=None,
+        floors=None,
+    ):
+        """Posterior over prior lamps (n, k) and reduced χ² (n,); with `sigmas`
+        (S,) one of each per `σ_rel`: (n, S, k), (n, S) (`floors`: the band-
+        error floor of each, default `sigma_floor`). With `evidence`, also
+        the log marginal likelihood of each pixel's mean-normalised band
+        radiances under the prior, (n,) or (n, S) (`log_evidence`).
+
+        `moon` (n,): the Moon's brightness when it is known (from the time and
+        place of the acquisition), relative to the conditions' Moon state
+        (`Conditions.moon`: 0 moonless, 1 that state); NaN where unknown.
+        Known, it is not fitted. Default None: fitted for every pixel."""
+        y = np.atleast_2d(np.asarray(radiance, float))
+        cand, lps = self.candidates(y.shape[0], surface)
+        a, q = self.design
+        sig = [self.sigma_rel] if sigmas is None else list(sigmas)
+        fl = np.broadcast_to(
+            np.asarray(self.sigma_floor if floors is None else floors, float),
+            (len(sig),),
+        )
+        noise = np.column_stack([np.asarray(sig, float), fl])
+        lk, chi = _score(y, cand, lps, a, q, self.prior.log_prior, noise, moon)
+        norm, post = (np.asarray(x) for x in _normalise(jnp.asarray(lk)))
+        dof = np.full(y.shape[0], max(self._dof(), 1), float)
+        if moon is not None:  # a known Moon amplitude is not a fitted parameter
+            known = np.isfinite(np.asarray(moon, float))
+            dof = np.where(known, max(self.n_bands - 1, 1), dof)
+        red = chi / (dof[:, None] if chi.ndim == 2 else dof)
+        out = (post, red)
+        if evidence:
+            out += (log_evidence(norm[..., 0], y, sig, fl),)
+        return tuple(x[:, 0] for x in out) if sigmas is None else out
+
+    def reconstruct(self, radiance, surface=None, moon=None) -> np.ndarray:
+        """Posterior-mean lamp spectrum per lumen, (n, w) [W nm⁻¹ lm⁻¹]
+        (`moon`: known Moon brightness per pixel, see `posterior`)."""
+        post, _ = self.posterior(radiance, surface, moon=moon)
+        return post @ self.prior.spectra
+
+    def predict(self, radiance, surface=None, moon=None) -> InversionResult:
+        """Invert band radiances (n, b) (any brightness; `moon`: known Moon
+        brightness per pixel, see `posterior`). Types, misfit and flag come
+        from the posterior at `sigma_rel`, each metric from the posterior at
+        its own `metric_noise` (one scoring per distinct value)."""
+        joint = (self.sigma_rel, self.sigma_floor)
+        flag = self.flag_noise or joint
+        noise = sorted({joint, flag, *self.metric_noise})
+        if len(noise) == 1:
+            post, misfit = self.posterior(radiance, surface, moon=moon)
+            return _result(self, post, misfit)
+        posts, misfits = self.posterior(
+            radiance, surface, [n[0] for n in noise], moon=moon,
+            floors=[n[1] for n in noise],
+        )  # fmt: skip
+        j = noise.index(joint)
+        by_metric = [posts[:, noise.index(x)] for x in self.metric_noise]
+        return _result(
+            self, posts[:, j], misfits[:, j], by_metric, misfits[:, noise.index(flag)]
+        )
+
+
+def build_inversion(
+    lamps: LampSet,
+    weights,
+    conditions: Conditions,
+    basis: SurfaceBasis,
+    surface_mode: str = "unknown",
+    sigma_rel: float = 0.03,
+    sigma_floor: float = SIGMA_FLOOR,
+) -> Inversion:
+    """An uncalibrated inversion with `lamps` as its prior (no conformal
+    widening, no reject threshold): the building block of `fit_inversion`.
+    Band error `σ_rel |y_b| + sigma_floor` (pixel mean |y| units)."""
+    if not sigma_floor > 0:
+        raise ValueError(f"sigma_floor must be > 0 (got {sigma_floor}).")
+    if surface_mode not in SURFACE_MODES:
+        raise ValueError(
+            f"surface mode {surface_mode!r}: expected one of {SURFACE_MODES}."
+        )
+    weights = np.asarray(weights, float)
+    grid = conditions.wavelength_nm
+    if weights.shape[-1] != grid.size or basis.mean.size != grid.size:
+        raise ValueError(
+            f"band weights ({weights.shape[-1]}), surface basis ({basis.mean.size}) "
+            f"and conditions ({grid.size}) must share one wavelength grid."
+        )
+    prior = lamp_prior(lamps.ids, lamps.spectra, lamps.level1, lamps.level2, grid)
+    return Inversion(
+        prior,
+        basis,
+        conditions,
+        weights,
+        _design(prior.spectra, weights, conditions, basis),
+        surface_mode,
+        float(sigma_rel),
+        np.zeros(3),
+        np.inf,
+        {},
+        sigma_floor=float(sigma_floor),
+    )
+
+
+def _result(
+    inv: Inversion, post, misfit, by_metric=None, flag_misfit=None
+) -> InversionResult:
+    """Estimates, intervals, flags and types of the posterior `post` (n, k);
+    `by_metric`: one posterior per metric for the estimates and intervals
+    (default: `post` for all three); `flag_misfit`: the misfit at
+    `Inversion.flag_noise` that decides `unexplained` (default `misfit`)."""
+    mean, rng, p_cct = _metrics_per_posterior(
+        [post] * 3 if by_metric is None else by_metric, inv.prior
+    )
+    mean, lo, hi = _widened(mean, rng, inv.conformal, inv.offsets)
+    est = mean.copy()
+    est[:, 2] = np.where(p_cct >= 0.5, MIRED / mean[:, 2], np.nan)
+    # mired interval [lo, hi] is CCT [MIRED/hi, MIRED/lo]
+    iv = np.stack([lo, hi], axis=-1)
+    iv[:, 2] = np.stack([MIRED / hi[:, 2], MIRED / lo[:, 2]], axis=-1)
+    unexplained = (misfit if flag_misfit is None else flag_misfit) > inv.threshold
+    l2 = sorted(set(inv.prior.level2))
+    m2 = np.array([[x == c for c in l2] for x in inv.prior.level2], float)
+    p2 = post @ m2
+    parents = [LEVEL2_PARENT.get(c, c) for c in l2]
+    l1 = [c for c in LEVEL1 if c in parents]
+    p1 = p2 @ np.array([[p == c for c in l1] for p in parents], float)
+    if inv.level1_temperature != 1.0 or inv.level2_temperature != 1.0:
+        # calibrated (fit_inversion(calibrate_probabilities=True)): each
+        # pixel's temperature grows with its misfit; tempering keeps each
+        # row's order, so the predicted types do not change
+        m = np.maximum(np.asarray(misfit, float), MISFIT_FLOOR)
+        p1 = temper(p1, inv.level1_temperature * m ** inv.temperature_slope[0])
+        p2 = temper(p2, inv.level2_temperature * m ** inv.temperature_slope[1])
+    parent_idx = np.array([l1.index(p) for p in parents])
+    i1 = np.argmax(p1, axis=1)
+    inside = parent_idx[None, :] == i1[:, None]
+    i2 = np.argmax(np.where(inside, p2, -1.0), axis=1)
+    pred1 = [None if u else l1[a] for u, a in zip(unexplained, i1, strict=True)]
+    pred2 = [
+        None if u or l2[b] not in LEVEL2 else l2[b]
+        for u, b in zip(unexplained, i2, strict=True)
+    ]
+    return InversionResult(
+        est,
+        iv,
+        p_cct,
+        unexplained,
+        misfit,
+        tuple(l1),
+        p1,
+        tuple(l2),
+        p2,
+        tuple(pred1),
+        tuple(pred2),
+        bool(np.isfinite(inv.threshold)),
+    )
