@@ -22,6 +22,9 @@ class InversionConfig:
     """Options of the shipped inversion (see `inversion.fit_inversion`).
 
     - `mixtures`: pairwise same-class blends per class in the prior.
+    - `cross_mixtures`: blends of two types per ordered class pair in the
+      prior, named by the majority lamp (`inversion.cross_mixture_lamps`;
+      0, the default, until measured over the lamp partitions).
     - `peak_shifts_nm`: wavelength-shifted copies of direct-emission LEDs.
     - `planck`: modelled incandescent spectra (Planck's law) in the prior.
     - `tm30`: the IES TM-30-15 lamps in the prior (train, never score).
@@ -39,6 +42,7 @@ class InversionConfig:
       are reported beside them and left to the `unexplained` flag."""
 
     mixtures: int = inv_mod.MIX_PAIRS
+    cross_mixtures: int = 0
     peak_shifts_nm: tuple[float, ...] = inv_mod.PEAK_SHIFTS_NM
     planck: bool = True
     tm30: bool = False
@@ -56,6 +60,7 @@ class InversionConfig:
         (all but the data and the prior's always-present lamps)."""
         return {
             "mixtures": self.mixtures,
+            "cross_mixtures": self.cross_mixtures,
             "peak_shifts": tuple(self.peak_shifts_nm),
             "sigma_rule": self.sigma_rule,
             "floor_grid": tuple(self.floor_grid),

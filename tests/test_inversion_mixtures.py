@@ -174,3 +174,67 @@ def test_large_priors_score_in_smaller_chunks_with_the_same_numbers(case):
         patch_inversion(mp, "CHUNK_PRIOR", 1)
         small = inv.posterior(rad[:40])[0]
     np.testing.assert_allclose(small, ref, rtol=1e-10, atol=1e-14)
+
+
+def test_cross_type_blends_are_named_by_their_majority_lamp(case):
+    """`cross_mixture_lamps`: per ordered class pair `pairs` lamp pairs of
+    two different classes, each at every minority share, a per-lumen blend
+    whose level-1/-2 classes are the majority lamp's; seeded; bad arguments
+    refused."""
+    lamps = case[0]
+    shares = (0.1, 0.4)
+    x = inv_mod.cross_mixture_lamps(lamps, 2, shares=shares)
+    l2 = np.asarray(lamps.level2, object)
+    classes = sorted(set(l2))
+    n = {c: int((l2 == c).sum()) for c in classes}
+    expected = sum(
+        min(2, n[c] * n[d]) for c in classes for d in classes if c != d
+    ) * len(shares)
+    assert len(x.ids) == expected == x.spectra.shape[0]
+    for k, i in enumerate(x.ids):
+        assert i.startswith("xmix:")
+        pair, s = i[5:].rsplit("@", 1)
+        a, b = (lamps.ids.index(p) for p in pair.split("+"))
+        assert lamps.level2[a] != lamps.level2[b]
+        assert (x.level1[k], x.level2[k]) == (lamps.level1[a], lamps.level2[a])
+        s = float(s)
+        assert s in shares
+        np.testing.assert_allclose(
+            x.spectra[k], (1 - s) * lamps.spectra[a] + s * lamps.spectra[b]
+        )
+        la, lb = (float(ler(lamps.spectra[j], GRID)) for j in (a, b))
+        lm = float(ler(x.spectra[k], GRID))  # one lumen: (1-s) of a, s of b
+        np.testing.assert_allclose(lm, 1.0 / ((1 - s) / la + s / lb), rtol=1e-9)
+    assert inv_mod.cross_mixture_lamps(lamps, 2, shares=shares).ids == x.ids
+    assert inv_mod.cross_mixture_lamps(lamps, 0).ids == ()
+    with pytest.raises(ValueError, match="shares"):
+        inv_mod.cross_mixture_lamps(lamps, 1, shares=(0.5,))
+    with pytest.raises(ValueError, match="pairs"):
+        inv_mod.cross_mixture_lamps(lamps, -1)
+
+
+def test_fit_builds_cross_type_blends_from_its_own_priors_only(case, monkeypatch):
+    lamps, row_lamp, rad, train, test, inner, w = case
+    built = spy_priors(monkeypatch)
+    inv = inv_mod.fit_inversion(
+        rad, row_lamp, lamps, train, inner, w, inv_mod.Conditions.clear(GRID),
+        basis=inv_mod._basis(GRID), cross_mixtures=1,
+    )  # fmt: skip
+    for ids, allowed in zip(built, [tr for tr, _ in inner] + [train], strict=True):
+        ok = {lamps.ids[i] for i in allowed}
+        parts = {
+            p for i in ids if i.startswith("xmix:")
+            for p in i[5:].rsplit("@", 1)[0].split("+")
+        }  # fmt: skip
+        assert parts and parts <= ok
+    d = inv.diagnostics["cross_mixtures"]
+    assert d["pairs_per_class_pair"] == 1
+    assert d["n"] == sum(i.startswith("xmix:") for i in inv.prior.ids) > 0
+    inv_mod._check_never_scored(inv, [lamps.ids[i] for i in test])
+    with pytest.raises(RuntimeError, match="mixtures of scored lamps"):
+        inv_mod._check_never_scored(inv, [lamps.ids[train[0]]])
+    with pytest.raises(ValueError, match="cross_mixtures"):
+        inv_mod.fit_inversion(
+            rad, row_lamp, lamps, train, inner, w, inv_mod.Conditions.clear(GRID),
+            cross_mixtures=-1,
+        )  # fmt: skip

@@ -233,11 +233,13 @@ from ._surfaces import (
     surface_from_sentinel2 as surface_from_sentinel2,
 )
 from ._variants import (
+    CROSS_MIX_SHARES as CROSS_MIX_SHARES,
     DIRECT_LED_MAX_FWHM_NM as DIRECT_LED_MAX_FWHM_NM,
     MIX_FRACTIONS as MIX_FRACTIONS,
     MIX_PAIRS as MIX_PAIRS,
     NIR_VARIANT_TAGS as NIR_VARIANT_TAGS,
     PEAK_SHIFTS_NM as PEAK_SHIFTS_NM,
+    cross_mixture_lamps as cross_mixture_lamps,
     direct_emitters as direct_emitters,
     mixture_lamps as mixture_lamps,
     nir_variants as nir_variants,

@@ -383,8 +383,8 @@ def _check_never_scored(inv, test_ids) -> None:
     parts = {
         p
         for i in inv.prior.ids
-        if i.startswith("mix:")
-        for p in i[4:].rsplit("@", 1)[0].split("+")
+        if i.startswith(("mix:", "xmix:"))
+        for p in i.partition(":")[2].rsplit("@", 1)[0].split("+")
     }
     if parts & set(test_ids):
         raise RuntimeError(

@@ -31,7 +31,9 @@ from ._model import Inversion, build_inversion
 from ._scoring import SIGMA_FLOOR, SIGMA_REL_GRID
 from ._surfaces import SurfaceBasis, surface_basis
 from ._variants import (
+    CROSS_MIX_SHARES,
     MIX_FRACTIONS,
+    cross_mixture_lamps,
     mixture_lamps,
     nir_variants,
     shifted_lamps,
@@ -97,6 +99,7 @@ def fit_inversion(
     row_moon=None,
     calibration: str = "lamps",
     mixtures: int = 0,
+    cross_mixtures: int = 0,
     interval_offsets: Sequence[float] = (0.0,),
     peak_shifts: Sequence[float] = (),
     nir_error: bool = False,
@@ -153,6 +156,12 @@ def fit_inversion(
     `train_lamps` and `always`, each inner fold's of its own training lamps
     and `always`. `diagnostics["mixtures"]` says how many.
 
+    `cross_mixtures` (default 0: none): every prior this fit builds also
+    holds blends of two of its measured lamps of different types, labelled
+    by the majority lamp (`cross_mixture_lamps`, that many pairs per ordered
+    class pair, seed `modelled_seed`), for pixels holding two lamp types.
+    `diagnostics["cross_mixtures"]` says how many.
+
     `interval_offsets` (default `(0.0,)`: the interval's unit is the
     posterior's half-width, as before; `INTERVAL_OFFSET_GRID` to choose):
     candidate offsets, as fractions of each metric's spread over
@@ -168,12 +177,12 @@ def fit_inversion(
     780-900 nm part carries its measured error into every band that sees it.
 
     `calibrate_probabilities` (default False): the level-1 and level-2
-    probabilities are temperature-scaled (`bandopt.calibration`) on held-out
-    rows: the inner folds' (types the prior knows) and, with calibration
-    "classes", the rows of each training class held out in turn (types it
-    lacks), the two groups weighted equally, each class-balanced.
-    `diagnostics["probabilities"]` gives the temperatures, the ECE before and
-    after per group and the `unexplained` rate on both groups."""
+    probabilities are temperature-scaled (`bandopt.calibration`) on the inner
+    folds' held-out rows (types the prior knows), class-balanced.
+    `diagnostics["probabilities"]` gives the temperatures and, for those rows
+    and (with calibration "classes") the rows of each training class held
+    out in turn (types it lacks), the ECE before and after and the
+    `unexplained` rate."""
     fracs = [float(x) for x in interval_offsets]
     if not fracs or min(fracs) < 0 or len(set(fracs)) != len(fracs):
         raise ValueError(
@@ -214,12 +223,18 @@ def fit_inversion(
 
     if mixtures < 0:
         raise ValueError(f"mixtures must be >= 0 (got {mixtures}).")
+    if cross_mixtures < 0:
+        raise ValueError(f"cross_mixtures must be >= 0 (got {cross_mixtures}).")
 
     def make(prior_set: LampSet, noise, extra=None) -> Inversion:
         pset = prior_set if always is None else prior_set + always
         measured = pset
         if mixtures:
             pset = pset + mixture_lamps(measured, mixtures, seed=modelled_seed)
+        if cross_mixtures:
+            pset = pset + cross_mixture_lamps(
+                measured, cross_mixtures, seed=modelled_seed
+            )
         if peak_shifts:
             pset = pset + shifted_lamps(measured, grid, peak_shifts)
         if nir_error:
@@ -419,6 +434,11 @@ def fit_inversion(
                 "max_pairs_per_class": int(mixtures),
                 "fractions": list(MIX_FRACTIONS) if mixtures else [],
                 "n": sum(i.startswith("mix:") for i in final.prior.ids),
+            },
+            "cross_mixtures": {
+                "pairs_per_class_pair": int(cross_mixtures),
+                "shares": list(CROSS_MIX_SHARES) if cross_mixtures else [],
+                "n": sum(i.startswith("xmix:") for i in final.prior.ids),
             },
             "peak_shifts": {
                 "shifts_nm": [float(x) for x in peak_shifts],
