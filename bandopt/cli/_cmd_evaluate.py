@@ -289,6 +289,7 @@ def load_user_lamp(path, nir="auto"):
 
     sp = read_spectrum(path)
     w, s = np.asarray(sp.wavelength_nm, float), np.asarray(sp.values, float)
+    s = s / s.max()  # peak 1: the scene scales every lamp to its lux anyway
     if w[0] > 380.0 or w[-1] < 780.0:
         raise ValueError(
             f"{path}: spectrum covers {w[0]:g}-{w[-1]:g} nm; need 380-780 nm."
@@ -684,7 +685,7 @@ def run(args) -> int:
     import jax.numpy as jnp
     import numpy as np
 
-    from ..estimate import METRICS, lamp_truth
+    from ..estimate import METRICS, truth_with_reasons
     from ..photometry import ler as ler_fn
     from ..scene import band_weights, class_illuminance_lx
     from ..search import get_context
@@ -776,10 +777,10 @@ def run(args) -> int:
     wts = np.asarray(band_weights(jnp.asarray(resp), jnp.asarray(grid)))
     vis = (grid >= 380) & (grid <= 780)
 
-    truths, notes, band_rad, owner = [], [], [], []
+    truths, true_why, notes, band_rad, owner = [], [], [], [], []
     for k, (candidates, note) in enumerate(lamps):
         values = candidates[0]  # the truth is visible-only: any candidate
-        truth, valid = lamp_truth(values[None], grid)
+        truth, why = truth_with_reasons(values[None], grid)
         # lumens ∝ K_m ∫ V S dλ = LER · ∫ S dλ (380-780 nm)
         lumens = float(ler_fn(values[None, vis], grid[vis])[0]) * float(
             np.trapezoid(values[vis], grid[vis])
@@ -790,10 +791,11 @@ def run(args) -> int:
             owner.append(k)
         truths.append(
             {
-                m: (float(truth[0, i]) if valid[0, i] else None)
+                m: (float(truth[0, i]) if np.isfinite(truth[0, i]) else None)
                 for i, m in enumerate(METRICS)
             }
         )
+        true_why.append(why[0])
         if note:
             notes.append(note)
     band_rad = np.asarray(band_rad)
@@ -829,11 +831,12 @@ def run(args) -> int:
         for k in range(len(lamps))
     ]
     rows = []
-    for path, t, r in zip(args.lamps, truths, est_rows, strict=True):
+    for path, t, tw, r in zip(args.lamps, truths, true_why, est_rows, strict=True):
         rows.append(
             {
                 "file": str(path),
                 "true": t,
+                "true_null_reasons": tw,
                 "estimate": r["estimate"],
                 "interval90": r["interval90"],
                 "null_reasons": r["null_reasons"],

@@ -129,6 +129,12 @@ def validate_spectrum(
     peak = float(values.max())
     if peak <= 0:
         raise ValueError(f"{where}: no positive value (peak {peak:g}).")
+    if peak < np.finfo(float).tiny:
+        raise ValueError(
+            f"{where}: peak {peak:g} is below the smallest normal float64 "
+            f"({np.finfo(float).tiny:g}): its values keep too few digits for "
+            "photometry; multiply them by a constant (results are scale-free)."
+        )
     if values.min() < -NEGATIVE_TOLERANCE * peak:
         i = int(np.argmin(values))
         raise ValueError(
