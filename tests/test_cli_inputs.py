@@ -3,6 +3,7 @@ issue it covers; a bad input exits 2 naming the option or file a user typed,
 an odd one gives a physical answer."""
 
 import json
+import sys
 
 import numpy as np
 import pandas as pd
@@ -119,3 +120,68 @@ def test_cct_not_meaningful_is_null_in_metrics_as_in_evaluate(centre, tmp_path, 
     assert not valid[0, 2]
     assert values[0, 0] == pytest.approx(row["LER"], rel=1e-12)
     assert values[0, 1] == pytest.approx(row["G"], rel=1e-12)
+
+
+# item 8: task files carry and check their own key
+
+
+def _opt_argv(out, n_bands="2"):
+    return ["optimise", "--target", "cct", "--bands", n_bands, "--preset", "tiny",
+            "--no-folds", "--out", str(out)]  # fmt: skip
+
+
+def _task(n_bands=2):
+    from bandopt.search import make_task
+
+    return make_task(
+        target="cct",
+        n_bands=n_bands,
+        pan="none",
+        fold="final",
+        seed=0,
+        max_evals=400,
+        preset="tiny",
+        noise=None,
+    )
+
+
+@pytest.mark.parametrize("text", ["[]", '{"foo": 1}', "null", '{"task": 3}'])
+def test_a_task_file_that_is_not_a_result_is_named(text, tmp_path, capsys):
+    from bandopt.cli._cmd_optimise import check_task_files
+    from bandopt.search._sweep import task_path
+
+    out = tmp_path / "opt"
+    path = task_path(out, _task())
+    path.parent.mkdir(parents=True)
+    path.write_text(text)
+    refused(capsys, _opt_argv(out), str(path), "corrupt task file", "--force")
+    assert path.is_file()
+    check_task_files([_task()], out, force=True, log=sys.stderr)
+    assert not path.exists()
+    assert "recomputing (--force)" in capsys.readouterr().err
+
+
+def test_another_runs_task_file_is_not_reused(tmp_path, capsys):
+    """A --bands 3 result copied over the --bands 2 task file is refused,
+    naming the file, instead of printing 3 bands for a 2-band run."""
+    from bandopt.search._sweep import task_path
+
+    out = tmp_path / "opt"
+    path = task_path(out, _task(2))
+    path.parent.mkdir(parents=True)
+    path.write_text(json.dumps({"task": _task(3), "bands": {}, "wall_s": 1.0}))
+    refused(capsys, _opt_argv(out), str(path), "another run")
+
+
+# item 10: report names an unreadable results file
+
+
+@pytest.mark.parametrize("text", ["{", b"\xff\xfe{}"])
+def test_report_names_an_unreadable_results_file(text, tmp_path, capsys):
+    res = tmp_path / "res"
+    res.mkdir()
+    bad = res / "recommendation.json"
+    bad.write_bytes(text if isinstance(text, bytes) else text.encode())
+    argv = ["report", "--results", str(res), "--out", str(tmp_path / "o")]
+    refused(capsys, argv, str(bad))
+    assert "disagree" not in capsys.readouterr().err

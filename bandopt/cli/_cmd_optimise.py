@@ -68,33 +68,28 @@ def register(subparsers):
         action="store_true",
         help="recompute task files in DIR/tasks that are corrupt (else an error)",
     )
-    p.add_argument(
-        "--json", action="store_true", help="print metrics.json on stdout"
-    )
+    p.add_argument("--json", action="store_true", help="print metrics.json on stdout")
     p.set_defaults(func=run)
 
 
 def check_task_files(tasks, out, *, force: bool, log) -> None:
-    """A task file that does not parse (a run killed while the disk was full,
-    an edited file) is named; with `force` it is removed and recomputed."""
-    import json
-
-    from ..search import task_path
+    """A task file that is not its task's result (a run killed while the disk
+    was full, an edited file, one copied from another run: `read_task_file`)
+    is named; with `force` it is removed and recomputed."""
+    from ..search import read_task_file, task_path
 
     for t in tasks:
         p = task_path(out, t)
         if not p.is_file():
             continue
         try:
-            json.loads(p.read_text())
-        except (ValueError, UnicodeDecodeError) as err:
+            read_task_file(p, t)
+        except ValueError as err:
             if not force:
-                raise ValueError(
-                    f"{p}: corrupt task file ({err}); rerun with --force to "
-                    "recompute it."
-                ) from None
+                raise ValueError(f"{err} Rerun with --force to recompute it.") from None
             p.unlink()
-            print(f"note: {p}: corrupt ({err}); recomputing (--force)", file=log)
+            why = str(err).rstrip(".")
+            print(f"note: {why}; recomputing (--force)", file=log)
 
 
 def run(args) -> int:
