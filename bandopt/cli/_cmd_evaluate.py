@@ -1,7 +1,7 @@
 """`bandopt evaluate`: LER, G and CCT of user lamp spectra, true and estimated
 from the band radiances of a band set."""
 
-from ._options import add_list_option
+from ._options import add_list_option, bounded
 
 
 SCENE = {
@@ -34,13 +34,15 @@ def register(subparsers):
         "evaluate",
         help="true and estimated LER, G, CCT of lamp spectra for a band set",
         description=(
-            "Train the brightness-free ridge estimators of LER, G index and CCT for a "
-            "band set on the built-in lamp library (scored lamps, scenario preset "
-            "'search'; ridge strength and feature degree by lamp-grouped CV), then, "
-            "for each lamp spectrum file, report the truth (from the full spectrum) "
-            "and the "
-            "estimates from the band radiances of that lamp lighting the default scene "
-            f"{SCENE}. " + NIR_POLICY
+            "Estimate LER, G index and CCT of your lamp spectra from the band "
+            "radiances of a band set, by default with the physics-based inversion "
+            "(a prior of the built-in lamp library, calibrated 90 % intervals, "
+            "level-1 lamp-type probabilities and an unexplained flag; "
+            "--estimator ridge|kernel for the brightness-free regression baselines "
+            "trained on the library, direct for the library-free estimate): for "
+            "each lamp spectrum file, the truth (from the full spectrum) and the "
+            "estimates from the band radiances of that lamp lighting the default "
+            f"scene {SCENE}. " + NIR_POLICY
         ),
     )
     p.add_argument(
@@ -83,7 +85,7 @@ def register(subparsers):
     )
     p.add_argument(
         "--modelled-per-class",
-        type=int,
+        type=bounded(int, lo=0, why="(a count)"),
         default=0,
         metavar="N",
         help="inversion only: also put N modelled lamps per rare class (lps, "
@@ -95,7 +97,7 @@ def register(subparsers):
     )
     p.add_argument(
         "--mixtures",
-        type=int,
+        type=bounded(int, lo=0, why="(a count)"),
         default=MIXTURES_DEFAULT,
         metavar="N",
         help="inversion only: also put pairwise blends of two measured library "
@@ -235,33 +237,22 @@ parser is built without JAX)."""
 
 
 def read_reflectance(path, grid):
-    """Two-column reflectance file -> values on `grid` (380-900 nm) [1]; errors
-    name the file and the problem."""
+    """Reflectance file -> values on `grid` (380-900 nm) [1], read by the one
+    reader of every spectral file (`datasets.loaders.read_spectrum`: header
+    line, `,`/`;`/tab/space separators, comments, LI-1800 and TM-27 files);
+    errors name the file and the problem."""
     import numpy as np
 
-    try:
-        data = np.loadtxt(
-            path,
-            delimiter=None if not str(path).endswith(".csv") else ",",
-            comments="#",
-            ndmin=2,
-        )
-    except (OSError, ValueError) as exc:
+    from ..datasets.loaders import read_spectrum
+
+    sp = read_spectrum(path, require_range_nm=(float(grid[0]), float(grid[-1])))
+    w, r = np.asarray(sp.wavelength_nm, float), np.asarray(sp.values, float)
+    if r.max() > 1:
+        i = int(np.argmax(r))
         raise ValueError(
-            f"{path}: cannot read a two-column reflectance table ({exc})"
-        ) from None
-    if data.shape[1] < 2 or data.shape[0] < 10:
-        raise ValueError(f"{path}: need >= 10 rows of 'wavelength_nm reflectance'.")
-    w, r = data[:, 0], data[:, 1]
-    if not np.all(np.diff(w) > 0):
-        raise ValueError(f"{path}: wavelengths must increase strictly.")
-    if w[0] > grid[0] or w[-1] < grid[-1]:
-        raise ValueError(
-            f"{path}: reflectance covers {w[0]:g}-{w[-1]:g} nm; need "
-            f"{grid[0]:g}-{grid[-1]:g} nm."
+            f"{path}: reflectance {r[i]:g} at {w[i]:g} nm is above 1; give "
+            "reflectance as a fraction 0-1."
         )
-    if not np.all(np.isfinite(r)) or r.min() < 0 or r.max() > 1:
-        raise ValueError(f"{path}: reflectance must be finite and within 0-1.")
     return np.interp(grid, w, r)
 
 
@@ -754,6 +745,12 @@ def run(args) -> int:
             tiling_edges(bands)  # before any lamp is read or anything trains
         except ValueError as exc:
             raise ValueError(f"--bands {args.bands}: {exc}") from None
+        if args.surface is None:
+            raise ValueError(
+                "--estimator direct needs --surface NAME|FILE: it divides the "
+                "surface out of the band values, and with the library's mean "
+                "reflectance instead its errors are large (results/estimate_bands)."
+            )
     warnings = band_set_warnings(bands, args.bands, log=sys.stderr)
     check_nir(args.nir)
     lamps = [load_user_lamp(p, args.nir) for p in args.lamps]  # before training

@@ -1,5 +1,6 @@
 """`bandopt optimise`: search the bands that best estimate LER, G and/or CCT."""
 
+from ._options import bounded, seed_type
 from ._output import add_locked_out
 
 
@@ -26,7 +27,7 @@ def register(subparsers):
     )
     p.add_argument(
         "--bands",
-        type=int,
+        type=bounded(int, lo=1, hi=12, why="(free bands)"),
         required=True,
         metavar="N",
         help="number of free bands (1-12)",
@@ -43,10 +44,10 @@ def register(subparsers):
         help="photon noise (thesis Table 2.3 sensor) at an EN 13201 class "
         "(e.g. P4) or a mean radiance [W m-2 sr-1 nm-1]",
     )
-    p.add_argument("--seed", type=int, default=0, help="search and fold seed")
+    p.add_argument("--seed", type=seed_type(), default=0, help="search and fold seed")
     p.add_argument(
         "--max-evals",
-        type=int,
+        type=bounded(int, lo=1, why="(objective evaluations)"),
         default=400,
         metavar="N",
         help="objective evaluations per global search (default 400)",
