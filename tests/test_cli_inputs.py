@@ -575,3 +575,75 @@ def test_sigterm_gives_a_message(capsys, monkeypatch):
     assert main(["surfaces"]) == 143
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1] == "bandopt surfaces: error: terminated (SIGTERM)"
+
+
+# item 12: a dot in an --out folder name
+
+
+def test_simulate_out_folder_may_have_a_dot(tmp_path, capsys):
+    out = tmp_path / "run_v1.2"
+    assert main(["simulate", "--bands", "sdgsat-1", *S, "--out", str(out)]) == 0
+    assert (out / "radiances.parquet").is_file()
+
+
+# item 15: a user's files, failed runs, locks, permissions, reproducible JSON
+
+
+@pytest.mark.parametrize("kind", ["simulate", "bands"])
+def test_an_existing_file_is_replaced_only_with_force(kind, tmp_path, capsys):
+    f = tmp_path / "mine.csv"
+    f.write_text("my data\n")
+    if kind == "simulate":
+        argv = ["simulate", "--bands", "sdgsat-1", *S, "--out", str(f)]
+    else:
+        argv = ["bands", "sdgsat-1", "--export-csv", str(f)]
+    refused(capsys, argv, str(f), "--force")
+    assert f.read_text() == "my data\n"
+    assert main([*argv, "--force"]) == 0
+    assert f.read_text() != "my data\n"
+
+
+def test_a_failed_run_leaves_no_folder_behind(tmp_path, capsys):
+    out = tmp_path / "new"
+    argv = ["simulate", "--bands", "sdgsat-1", *S[:8], "--classes", "P99"]
+    refused(capsys, [*argv, "--out", str(out)], "P99")
+    assert not out.exists()
+    argv = ["optimise", "--target", "g", "--bands", "2", "--preset", "tiny"]
+    refused(capsys, [*argv, "--noise", "bogus", "--out", str(out)], "--noise")
+    assert not out.exists()  # nor a lock file in it
+
+
+def test_a_finished_run_leaves_no_lock(tmp_path):
+    from bandopt.cli._output import LOCK_NAME, OutputLock
+
+    with OutputLock(tmp_path / "o") as lock:
+        assert (lock.directory / LOCK_NAME).is_file()
+    assert not (tmp_path / "o" / LOCK_NAME).exists()
+    with OutputLock(tmp_path / "o"):  # and the folder can be locked again
+        pass
+
+
+def test_task_files_have_the_permissions_of_other_outputs(tmp_path):
+    import os
+
+    from bandopt.search._sweep import _write_json
+
+    mask = os.umask(0o022)
+    try:
+        _write_json(tmp_path / "t.json", {"a": 1})
+    finally:
+        os.umask(mask)
+    assert (tmp_path / "t.json").stat().st_mode & 0o777 == 0o644
+
+
+def test_optimise_json_is_the_same_for_the_same_seed(tmp_path, capsys):
+    def run(out):
+        argv = ["optimise", "--target", "g", "--bands", "2", "--preset", "tiny"]
+        argv += ["--no-folds", "--max-evals", "20", "--out", str(out), "--json"]
+        assert main(argv) == 0
+        metrics = json.loads(capsys.readouterr().out)
+        timing = metrics.pop("timing")
+        assert timing["final_search_global"]["wall_s"] >= 0.0
+        return metrics
+
+    assert run(tmp_path / "a") == run(tmp_path / "b")

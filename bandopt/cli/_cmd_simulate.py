@@ -133,6 +133,11 @@ def register(subparsers):
         ".parquet/.csv file name",
     )
     p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace an existing --out .parquet/.csv file (else an error)",
+    )
+    p.add_argument(
         "--json",
         action="store_true",
         help="print a JSON summary (file, shape, radiance range per band) on stdout",
@@ -179,8 +184,23 @@ def _entry(text: str, what: str):
 
 
 def run(args) -> int:
-    import sys
     from pathlib import Path
+
+    from ._output import made_dir, prepare_file, refuse_existing
+
+    out = Path(args.out)
+    if out.suffix.lower() not in (".parquet", ".csv"):
+        # any other name is a folder, dots included (run_v1.2); a failed run
+        # removes the folder it created
+        with made_dir(out):
+            return _simulate(args, out / "radiances.parquet", folder=True)
+    refuse_existing(out, "--out", args.force)
+    prepare_file(out, "--out")
+    return _simulate(args, out, folder=False)
+
+
+def _simulate(args, out, *, folder: bool) -> int:
+    import sys
 
     from tqdm import tqdm
 
@@ -195,18 +215,8 @@ def run(args) -> int:
     from ..sensor import SensorParams
     from ._checks import coverage_check
     from ._cmd_bands import _load
-    from ._output import atomic_path, prepare_dir, prepare_file, print_json
+    from ._output import atomic_path, print_json
 
-    out = Path(args.out)
-    folder = out.suffix.lower() not in (".parquet", ".csv")
-    if folder:
-        if out.suffix and not out.is_dir():
-            raise ValueError(
-                f"--out {out}: expected a folder or a .parquet/.csv file name."
-            )
-        prepare_dir(out)
-        out = out / "radiances.parquet"
-    prepare_file(out, "--out")
     bands, _ = _load(args.bands)
     warnings = coverage_check(bands, source=args.bands, log=sys.stderr)
     lamps = args.lamps

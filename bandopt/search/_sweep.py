@@ -50,6 +50,9 @@ def _write_json(path: Path, data) -> None:
     with os.fdopen(fd, "w") as fh:
         json.dump(data, fh, indent=1, default=float)
         fh.write("\n")
+    mask = os.umask(0)
+    os.umask(mask)
+    os.chmod(tmp, 0o666 & ~mask)  # mkstemp makes 0600; outputs are 0644
     os.replace(tmp, path)
 
 
