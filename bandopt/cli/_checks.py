@@ -81,6 +81,27 @@ def _shipped(source) -> bool:
     return True
 
 
+def sensor_for_gsd(gsd_m, **kwargs):
+    """`SensorParams` (the Table 2.3 integration time when `gsd_m` is None,
+    else `SensorParams.for_gsd`); `ValueError` naming `--gsd` when its
+    integration time leaves the photon model no counts (radiance to electrons
+    underflows float64: a GSD far below any real pixel)."""
+    from ..sensor import SensorParams
+
+    if gsd_m is None:
+        return SensorParams(**kwargs)
+    params = SensorParams.for_gsd(gsd_m, **kwargs)
+    scale = float(params.etendue_time_m2_sr_s)
+    if not scale >= np.finfo(float).tiny:
+        raise ValueError(
+            f"--gsd {gsd_m:g}: an integration time of "
+            f"{float(params.integration_time_s):.3g} s collects no light (the "
+            "sensor's radiance-to-energy factor underflows float64); give the GSD "
+            "of a real sensor."
+        )
+    return params
+
+
 def has_usable_ratio(bands, *, rtol: float = 1e-6) -> bool:
     """True when some pair of bands has responses that are not proportional
     on the data grid (otherwise every band ratio is a constant and the

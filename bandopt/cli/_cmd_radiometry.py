@@ -1,7 +1,7 @@
 """`bandopt radiometry`: detection limit, saturation, SNR/NER and bit depth of a
 band set (thesis section 4.2)."""
 
-from ._options import add_list_option, bounded, seed_type
+from ._options import add_list_option, bounded, gsd_type, seed_type
 from ._output import add_locked_out
 
 
@@ -81,7 +81,7 @@ def register(subparsers):
     )
     p.add_argument(
         "--gsd",
-        type=bounded(lo=0.0, lo_open=True, why="m"),
+        type=gsd_type(),
         default=None,
         metavar="M",
         help="integration time from this GSD at 600 km [m] (default: Table 2.3)",
@@ -172,8 +172,7 @@ def run(args) -> int:
 
     from ..radiometry import LimitRule, RadiometryConfig, compute, load_band_set
     from ..results import update_recommendation
-    from ..sensor import SensorParams
-    from ._checks import coverage_check
+    from ._checks import coverage_check, sensor_for_gsd
     from ._output import OutputLock, prepare_file, print_json
 
     recommend = None
@@ -188,10 +187,7 @@ def run(args) -> int:
         dark_current_e_s=args.dark_current,
         tdi_stages=args.tdi,
     )
-    if args.gsd is None:
-        params = SensorParams(**kw)
-    else:
-        params = SensorParams.for_gsd(args.gsd, **kw)
+    params = sensor_for_gsd(args.gsd, **kw)
     rule = LimitRule(
         snr_target=args.snr,
         dim_percentile=args.dim_percentile,

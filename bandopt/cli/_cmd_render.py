@@ -1,6 +1,6 @@
 """`bandopt render`: render a road-lighting layout and see it at one or more GSDs."""
 
-from ._options import add_list_option, bounded, seed_type
+from ._options import add_list_option, bounded, gsd_type, seed_type
 from ._output import add_locked_out
 
 
@@ -37,7 +37,7 @@ def register(subparsers):
     add_list_option(
         p,
         "--gsd",
-        type=bounded(lo=0.0, lo_open=True, why="m"),
+        type=gsd_type(),
         default=[10.0],
         metavar="M",
         help="ground sample distances [m]",

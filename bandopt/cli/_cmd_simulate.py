@@ -1,6 +1,6 @@
 """`bandopt simulate`: band radiances of a scenario set, with every label."""
 
-from ._options import add_list_option, bounded, seed_type
+from ._options import add_list_option, bounded, gsd_type, seed_type
 
 
 FIELD_OPTIONS = {
@@ -110,7 +110,7 @@ def register(subparsers):
     )
     p.add_argument(
         "--gsd",
-        type=bounded(lo=0.0, lo_open=True, why="m"),
+        type=gsd_type(),
         default=None,
         metavar="M",
         help="ground sample distance setting the integration time, > 0 [m] "
@@ -202,6 +202,7 @@ def run(args) -> int:
 def _simulate(args, out, *, folder: bool) -> int:
     import sys
 
+    import numpy as np
     from tqdm import tqdm
 
     from ..forward import simulate, to_frame
@@ -212,8 +213,7 @@ def _simulate(args, out, *, folder: bool) -> int:
         DEFAULT_SURFACES,
         build_scenarios,
     )
-    from ..sensor import SensorParams
-    from ._checks import coverage_check
+    from ._checks import coverage_check, sensor_for_gsd
     from ._cmd_bands import _load
     from ._output import atomic_path, print_json
 
@@ -240,7 +240,7 @@ def _simulate(args, out, *, folder: bool) -> int:
         uplight_model=args.uplight_model,
         neighbourhood=args.neighbourhood or DEFAULT_NEIGHBOURHOOD,
     )
-    params = SensorParams() if args.gsd is None else SensorParams.for_gsd(args.gsd)
+    params = sensor_for_gsd(args.gsd)
     limits = None
     if args.bits is not None:
         clean = simulate(scen, bands).radiance
@@ -272,8 +272,13 @@ def _simulate(args, out, *, folder: bool) -> int:
             bits=args.bits,
             limits=limits,
         )
+        if not np.all(np.isfinite(sim.radiance)):
+            raise ValueError(
+                f"--gsd {args.gsd:g}: the photon counts overflow float64 (an "
+                f"integration time of {float(params.integration_time_s):.3g} s); "
+                "give a GSD of a real sensor."
+            )
         frames.append(to_frame(sub, sim))
-    import numpy as np
     import pandas as pd
 
     table = pd.concat(frames, ignore_index=True)

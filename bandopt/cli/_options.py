@@ -22,6 +22,7 @@ Fixed-arity tuples (`render --atmosphere ATMOSPHERE AEROSOL VIS_KM`,
 """
 
 import argparse
+import math
 import os
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -138,6 +139,20 @@ def add_list_option(
         required=required,
         metavar=metavar,
         help=text,
+    )
+
+
+EARTH_CIRCUMFERENCE_M = 2 * math.pi * 6371e3
+"""Largest GSD: the circumference of the sensor model's spherical Earth
+(`bandopt.sensor`, R = 6371 km); a pixel cannot be wider than the Earth.
+Stated here, not imported, so that building the parser imports no JAX."""
+
+
+def gsd_type() -> Callable[[str], float]:
+    """The argparse `type` of every `--gsd`: > 0 and at most the Earth's
+    circumference. [m]"""
+    return bounded(
+        lo=0.0, lo_open=True, hi=EARTH_CIRCUMFERENCE_M, why="m (a pixel on the Earth)"
     )
 
 
