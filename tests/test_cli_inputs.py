@@ -647,3 +647,44 @@ def test_optimise_json_is_the_same_for_the_same_seed(tmp_path, capsys):
         return metrics
 
     assert run(tmp_path / "a") == run(tmp_path / "b")
+
+
+# item 5 (continued): a --prior-lamps class that does not fit its spectrum
+
+
+def test_prior_lamp_of_the_wrong_class_is_warned():
+    from bandopt.cli._cmd_evaluate import prior_class_warning
+    from bandopt.datasets.lamps import library
+    from bandopt.spectra import GRID_1NM
+
+    grid = np.asarray(GRID_1NM, float)
+    blue = np.exp(-0.5 * ((grid - 450.0) / 8.0) ** 2)
+    w = prior_class_warning("led_amber", "blue.csv", blue, grid)
+    assert w is not None and "blue.csv" in w and "led_amber" in w and "450 nm" in w
+    lib = library().select(lamps_only=True)
+    amber = next(
+        i
+        for i, r in enumerate(lib.records)
+        if r.level2 == "led_amber" and np.all(np.isfinite(lib.values[i]))
+    )
+    assert prior_class_warning("led_amber", "a.csv", lib.values[amber], grid) is None
+
+
+def test_evaluate_prints_the_prior_class_warning(tmp_path, capsys, monkeypatch):
+    from bandopt.cli import _cmd_evaluate
+
+    def stop(*a, **kw):
+        raise ValueError("stopped before training (test)")
+
+    monkeypatch.setattr(_cmd_evaluate, "_fit", stop)
+    lamp = _csv(tmp_path / "led.csv", _warm_led())
+    blue = _csv(tmp_path / "blue.csv", _line(450.0))
+    argv = ["evaluate", "--bands", "sdgsat-1", "--lamps", str(lamp)]
+    argv += ["--prior-lamps", f"led_amber={blue}"]
+    try:
+        rc = main(argv)
+    except SystemExit as e:
+        rc = e.code
+    err = capsys.readouterr().err
+    assert rc == 2 and "stopped before training" in err
+    assert f"warning: --prior-lamps led_amber={blue}: its visible centroid" in err

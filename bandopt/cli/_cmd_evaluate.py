@@ -522,6 +522,46 @@ def parse_prior_lamps(entries) -> list[tuple[str, str]]:
     return out
 
 
+def visible_centroid_nm(spectra, grid):
+    """Power-weighted mean wavelength over 380-780 nm of each spectrum (l, w)
+    on `grid`; NaN for a spectrum without visible power. [nm]"""
+    import numpy as np
+
+    vis = (grid >= 380.0) & (grid <= 780.0)
+    s = np.asarray(spectra, float)[:, vis]
+    power = np.trapezoid(s, grid[vis], axis=1)
+    moment = np.trapezoid(s * grid[vis], grid[vis], axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(power > 0, moment / power, np.nan)
+
+
+def prior_class_warning(cls: str, path, spectrum, grid) -> str | None:
+    """A warning when a `--prior-lamps CLASS=FILE` spectrum's visible centroid
+    lies outside the range of the library's measured lamps of CLASS (a 450 nm
+    line given as led_amber, whose lamps lie near 600 nm): the class is
+    probably wrong. A warning, not an error: a new lamp of the class may lie
+    a little outside the library's."""
+    import numpy as np
+
+    from ..datasets.lamps import library
+
+    lib = library(wavelength_nm=grid).select(lamps_only=True)
+    members = [i for i, r in enumerate(lib.records) if r.level2 == cls]
+    ok = [i for i in members if np.all(np.isfinite(lib.values[i]))]
+    if not ok:
+        return None
+    ref = visible_centroid_nm(lib.values[ok], grid)
+    (c,) = visible_centroid_nm(np.asarray(spectrum, float)[None], grid)
+    lo, hi = float(np.nanmin(ref)), float(np.nanmax(ref))
+    if np.isfinite(c) and lo <= c <= hi:
+        return None
+    return (
+        f"--prior-lamps {cls}={path}: its visible centroid "
+        f"{c:.0f} nm lies outside the {lo:.0f}-{hi:.0f} nm of the library's "
+        f"{len(ok)} {cls} lamps; is it a {cls} lamp?"
+    )
+
+
 def prior_lamp_names(paths) -> list[str]:
     """Each `--prior-lamps` file's name in the prior (ids `own:<name>`): its
     file name, or its path where two files share a name."""
@@ -756,6 +796,11 @@ def run(args) -> int:
     lamps = [load_user_lamp(p, args.nir) for p in args.lamps]  # before training
     prior_files = parse_prior_lamps(args.prior_lamps)
     prior_loaded = [load_user_lamp(p, args.nir) for _, p in prior_files]
+    for (cls, p), (spectra, _) in zip(prior_files, prior_loaded, strict=True):
+        w = prior_class_warning(cls, p, spectra[0], np.asarray(GRID_1NM, float))
+        if w is not None:
+            warnings.append(w)
+            print(f"warning: {w}", file=sys.stderr)
     args.own_lamps = (
         (
             prior_lamp_names([p for _, p in prior_files]),
