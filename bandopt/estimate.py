@@ -40,6 +40,7 @@ from .names import CanonicalMapping
 from .photometry import (
     CCT_MAX_K,
     CCT_MIN_K,
+    DUV_MAX,
     G_CAP,
     K_M_LM_PER_W,
     metrics as photometric_metrics,
@@ -106,23 +107,68 @@ def lamp_truth(
     Returns `(values, valid)`, both `(l, 3)` in `METRICS` order: LER [lm W⁻¹]
     (380-780 nm), G [1] (capped at `photometry.G_CAP` where flagged; the cap is
     kept as a valid value) and CCT [K] (valid only where meaningful, i.e.
-    `CCT_flag` False). Spectra must cover 380-780 nm on a 1 nm grid.
+    `CCT_flag` False). A metric is invalid (NaN) by the rule of
+    `truth_with_reasons`. Spectra must cover 380-780 nm on a 1 nm grid.
+    """
+    values, _ = truth_with_reasons(spectra, wavelength_nm)
+    return values, np.isfinite(values)
+
+
+NO_VISIBLE_LIGHT = "no light in 380-780 nm (visible power 0): undefined"
+
+
+def truth_with_reasons(
+    spectra: Float[ArrayLike, "l w"], wavelength_nm: Float[ArrayLike, " w"]
+) -> tuple[np.ndarray, list[dict[str, str]]]:
+    """The one rule for an undefined photometric truth, with its reason.
+
+    Returns `(values, reasons)`: values `(l, 3)` in `METRICS` order, NaN where
+    undefined, and per lamp a dict metric -> why it is undefined:
+
+    - LER: no light in 380-780 nm (0/0);
+    - G: no light the eye sees (∫ V S = 0 over 380-780 nm: G compares the
+      blue light with it); without blue light but with visible light G is
+      `G_CAP`, flagged, and valid (low-pressure sodium);
+    - CCT: no light, or not meaningful: outside `CCT_MIN_K`-`CCT_MAX_K` or
+      |Duv| > `DUV_MAX` (the reason gives the number).
+
+    `bandopt metrics` and `bandopt evaluate` both report truth by this rule.
+    Spectra must cover 380-780 nm on a 1 nm grid.
     """
     w = np.asarray(wavelength_nm, float)
     vis = (w >= 380.0) & (w <= 780.0)
     m = photometric_metrics(np.asarray(spectra, float)[:, vis], w[vis])
-    values = np.stack(
-        [np.asarray(m["LER"]), np.asarray(m["G"]), np.asarray(m["CCT"])], 1
-    )
-    valid = np.stack(
-        [
-            np.isfinite(values[:, 0]),
-            np.isfinite(values[:, 1]),
-            ~np.asarray(m["CCT_flag"]) & np.isfinite(values[:, 2]),
-        ],
-        1,
-    )
-    return np.where(valid, values, np.nan), valid
+    ler, g, cct, duv = (np.asarray(m[k], float) for k in ("LER", "G", "CCT", "Duv"))
+    flag = np.asarray(m["CCT_flag"], bool)
+    values = np.stack([ler, g, cct], 1)
+    reasons: list[dict[str, str]] = []
+    for i in range(values.shape[0]):
+        why: dict[str, str] = {}
+        if not np.isfinite(ler[i]):
+            why["LER"] = NO_VISIBLE_LIGHT
+        if not ler[i] > 0:
+            why["G"] = why.get("LER") or (
+                "no light the eye sees (V-weighted power 0 in 380-780 nm): undefined"
+            )
+        if "LER" in why:
+            why["CCT"] = NO_VISIBLE_LIGHT
+        elif not np.isfinite(cct[i]):
+            why["CCT"] = "no chromaticity for this spectrum (computation gave NaN)"
+        elif flag[i] and not CCT_MIN_K <= cct[i] <= CCT_MAX_K:
+            why["CCT"] = (
+                f"not meaningful: {cct[i]:.0f} K lies outside {CCT_MIN_K:g}-"
+                f"{CCT_MAX_K:g} K"
+            )
+        elif flag[i]:
+            why["CCT"] = (
+                f"not meaningful: |Duv| {abs(duv[i]):.3f} > {DUV_MAX:g} (too far "
+                "from the Planckian locus)"
+            )
+        for k, name in enumerate(METRICS):
+            if name in why:
+                values[i, k] = np.nan
+        reasons.append(why)
+    return values, reasons
 
 
 def to_model_space(values: ArrayLike) -> Array:
@@ -689,5 +735,6 @@ __all__ = [
     "resolve_target",
     "ridge_solve",
     "to_model_space",
+    "truth_with_reasons",
     "weighted_standardisation",
 ]

@@ -208,6 +208,8 @@ def _run(spectra, wavelength_nm, quantity: str, method: str = "ohno2013"):
     spectra = _as_spectra(spectra)
     start = _check_grid(wavelength_nm, spectra.shape[-1])
     check = _visible_is_traced(spectra, start)
+    if not check:  # concrete: scale-free on the host (traced values are not)
+        spectra = _unit_peak(np.asarray(spectra))
     return _core(spectra, start, quantity, method, check)
 
 
@@ -223,6 +225,20 @@ def _safe_div(num: ArrayLike, den: Array, ok: Array) -> Array:
 def _safe_sqrt(x: Array) -> Array:
     pos = x > 0
     return jnp.where(pos, jnp.sqrt(jnp.where(pos, x, 1.0)), 0.0)
+
+
+def _unit_peak(spectra: np.ndarray) -> np.ndarray:
+    """Each concrete spectrum scaled by the power of two that brings its
+    largest finite |value| into [0.5, 1), on the host. Every quantity here is
+    a ratio of integrals and a power of two scales exactly, so results are
+    bit-identical to the unscaled ones wherever those neither overflow (a
+    peak near the float maximum) nor underflow (a tiny peak); there they are
+    now right too. On the host because XLA on CPU flushes subnormal numbers
+    to zero. An all-zero spectrum stays zero."""
+    finite = np.isfinite(spectra)
+    peak = np.max(np.where(finite, np.abs(spectra), 0.0), axis=-1, keepdims=True)
+    _, exponent = np.frexp(peak)
+    return np.where(finite, np.ldexp(spectra, -exponent), spectra)
 
 
 def _visible_integrals(visible: Array, weights: np.ndarray) -> Array:

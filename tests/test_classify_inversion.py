@@ -408,5 +408,7 @@ def test_cli_mixtures_is_for_the_inversion_only(capsys):
     argv = ["classify", "--bands", "sdgsat-1", "--scenarios", "quick"]
     assert main([*argv, "--mixtures", "3"]) == 2
     assert "--estimator inversion only" in capsys.readouterr().err
-    assert main([*argv, "--estimator", "inversion", "--mixtures", "-1"]) == 2
-    assert "must be >= 0" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as e:  # a usage error, refused by the parser
+        main([*argv, "--estimator", "inversion", "--mixtures", "-1"])
+    assert e.value.code == 2
+    assert "--mixtures: -1 is outside [0, inf]" in capsys.readouterr().err

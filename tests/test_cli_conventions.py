@@ -35,9 +35,9 @@ def test_version(capsys):
 
 
 def test_bare_bandopt_prints_help(capsys):
-    assert main([]) == 0
-    out = capsys.readouterr().out
-    assert out.startswith("usage: bandopt") and "library" in out and "render" in out
+    assert main([]) == 2  # a usage error: no command
+    err = capsys.readouterr().err
+    assert err.startswith("usage: bandopt") and "library" in err and "render" in err
 
 
 @pytest.mark.parametrize("name", ["simulate", "optimise", "radiometry", "render"])

@@ -229,7 +229,7 @@ def test_second_run_on_a_locked_folder_is_refused(tmp_path, capsys):
         rc = main([*args, "--no-folds", "--out", str(out)])
     assert rc == 2
     _one_line_error(capsys, rc, str(out), "another bandopt run")
-    assert sorted(p.name for p in out.iterdir()) == [".bandopt.lock"]
+    assert sorted(p.name for p in out.iterdir()) == []  # no lock left behind
 
 
 def test_lock_is_released_when_the_holder_dies(tmp_path):

@@ -506,9 +506,11 @@ def test_evaluate_json_says_how_many_modelled_lamps(
     assert json.loads(capsys.readouterr().out)["prior_lamps"] == want
     assert main([*argv, "--estimator", "ridge", "--modelled-per-class", "2"]) == 2
     assert "--estimator inversion only" in capsys.readouterr().err
-    assert main([*argv, "--modelled-per-class", "-1"]) == 2
-    assert main([*argv, "--mixtures", "-1"]) == 2
-    assert "--mixtures -1: must be >= 0" in capsys.readouterr().err
+    for option in ("--modelled-per-class", "--mixtures"):
+        with pytest.raises(SystemExit) as e:  # refused by the parser
+            main([*argv, option, "-1"])
+        assert e.value.code == 2
+        assert f"{option}: -1 is outside [0, inf]" in capsys.readouterr().err
     assert main([*argv, "--estimator", "ridge", "--mixtures", "5"]) == 2
     assert "--estimator inversion only" in capsys.readouterr().err
     mixtures.clear()

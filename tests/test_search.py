@@ -327,6 +327,7 @@ def test_evaluate_json_schema(tmp_path, capsys):
         assert set(r) == {
             "file",
             "true",
+            "true_null_reasons",
             "estimate",
             "interval90",
             "null_reasons",

@@ -105,7 +105,9 @@ def test_narrow_band_needs_explicit_floor():
             r"bands\[0\]\.edges_nm: need lower < upper",
         ),
         (
-            '{"bands": [{"centre_nm": 880, "fwhm_nm": 60}]}',
+            # beyond a range the file states (without one the range widens and
+            # the commands' coverage rule applies: tests/test_cli_inputs.py)
+            '{"range_nm": [380, 900], "bands": [{"centre_nm": 880, "fwhm_nm": 60}]}',
             r"bad\.json: bands: Band 'B1': support 850-910 nm",
         ),
         (

@@ -17,15 +17,20 @@ Errors are one line on stderr, `bandopt COMMAND: error: ...`, naming the file
 or option and the problem: exit status 2 for bad input (`ValueError`, a
 missing input file), 1 for a file that cannot be written or memory that
 cannot be had, 141 for a closed output pipe (as a shell reports SIGPIPE),
-130 for Ctrl-C, 70 for an internal error (set `BANDOPT_TRACEBACK=1` to see
-its traceback).
+130 for Ctrl-C, 143 for SIGTERM (each with a one-line message), 70 for an
+internal error (set `BANDOPT_TRACEBACK=1` to see its traceback). `bandopt`
+without a command prints the help on stderr and exits 2. Warnings are one
+line each, `bandopt COMMAND: warning: ...` (no source file and line).
 """
 
 import argparse
+import contextlib
 import importlib
 import os
 import pkgutil
+import signal
 import sys
+import warnings
 
 from ._options import ListAction
 from ._output import OutputLock as OutputLock  # one run per --out (experiments)
@@ -35,7 +40,43 @@ EXIT_BAD_INPUT = 2
 EXIT_IO = 1
 EXIT_BROKEN_PIPE = 141
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143  # 128 + SIGTERM, as a shell reports it
 EXIT_INTERNAL = 70
+
+
+class _Terminated(BaseException):
+    """Raised in the main thread by the SIGTERM handler of `main`."""
+
+
+def _on_sigterm(signum, frame):
+    raise _Terminated
+
+
+@contextlib.contextmanager
+def _sigterm_as_exception():
+    """While a command runs, SIGTERM raises `_Terminated` (a one-line message
+    and exit 143 instead of a silent death); the previous handler is put back
+    after (an in-process caller keeps its own)."""
+    try:
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:  # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _show_warning(command: str):
+    """`warnings.showwarning` for a command: one line, no file and line."""
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        text = " ".join(str(message).split())
+        with contextlib.suppress(OSError):
+            print(f"bandopt {command}: warning: {text}", file=sys.stderr, flush=True)
+
+    return show
 
 
 def write_radiometry_results(result: dict, out) -> None:
@@ -58,9 +99,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Band-selection optimisation for night-time multispectral sensors.",
         epilog="`bandopt COMMAND --help` describes a command and its options.",
     )
-    parser.add_argument(
-        "--version", action="version", version=f"bandopt {_version()}"
-    )
+    parser.add_argument("--version", action="version", version=f"bandopt {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     names = sorted(
         m.name for m in pkgutil.iter_modules(__path__) if m.name.startswith("_cmd_")
@@ -93,12 +132,37 @@ def _defaults_in_help(parser: argparse.ArgumentParser) -> None:
             a.help += f" (default: {d})".replace("%", "%%")
 
 
+def _refuse_empty_values(parser: argparse.ArgumentParser, args) -> None:
+    """An option given an empty or blank string (`--plot ''`) is a usage
+    error naming it: no option of bandopt takes an empty name."""
+    sub = next(
+        a for a in parser._actions if isinstance(a, argparse._SubParsersAction)
+    ).choices[args.command]
+    for a in sub._actions:
+        value = getattr(args, a.dest, None)
+        values = value if isinstance(value, list | tuple) else [value]
+        if a.option_strings and any(
+            isinstance(v, str) and not v.strip() for v in values
+        ):
+            sub.error(f"argument {a.option_strings[0]}: empty value")
+
+
 def _one_line(err: BaseException) -> str:
     if isinstance(err, OSError) and err.filename is not None:
         what = err.strerror or str(err)
         return f"{err.filename}: {what}"
     text = str(err) or type(err).__name__
     return text
+
+
+def _user_words(message: str, field_options: dict[str, str]) -> str:
+    """`message` with the library's argument names (`gsd_m`) replaced by the
+    options that set them (`--gsd`): a user reads the names they typed."""
+    import re
+
+    for field, option in field_options.items():
+        message = re.sub(rf"`{field}`|\b{field}\b", option, message)
+    return message
 
 
 def _report(command: str, message: str) -> None:
@@ -149,20 +213,29 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser()
     if not argv:
-        parser.print_help()
-        return 0
+        parser.print_help(sys.stderr)
+        return EXIT_BAD_INPUT
     args = parser.parse_args(argv)
     if args.command is None:
-        parser.print_help()
-        return 0
+        parser.print_help(sys.stderr)
+        return EXIT_BAD_INPUT
+    _refuse_empty_values(parser, args)
     _configure_environment()
     from . import _progress
 
     try:
-        with _progress.phase(f"bandopt {args.command}", _progress.key_for(argv)):
+        with (
+            _sigterm_as_exception(),
+            warnings.catch_warnings(),
+            _progress.phase(f"bandopt {args.command}", _progress.key_for(argv)),
+        ):
+            warnings.showwarning = _show_warning(args.command)
             rc = int(args.func(args) or 0)
         sys.stdout.flush()
         return rc
+    except _Terminated:
+        _report(args.command, "terminated (SIGTERM)")
+        return EXIT_TERMINATED
     except BrokenPipeError:
         _silence_stdout()
         _report(args.command, "stdout: broken pipe (the reading process closed it)")
@@ -171,7 +244,8 @@ def main(argv: list[str] | None = None) -> int:
         _report(args.command, "interrupted")
         return EXIT_INTERRUPTED
     except (ValueError, FileNotFoundError) as err:
-        _report(args.command, _one_line(err))
+        names = getattr(args, "field_options", {})
+        _report(args.command, _user_words(_one_line(err), names))
         return EXIT_BAD_INPUT
     except OSError as err:
         _report(args.command, _one_line(err))

@@ -38,6 +38,11 @@ def register(subparsers):
         metavar="FILE",
         help="write each band's response on 380-900 nm at 1 nm as CSV",
     )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace an existing --export-csv file (else an error)",
+    )
     p.set_defaults(func=run)
 
 
@@ -202,12 +207,14 @@ def _list(as_json: bool) -> int:
 
 def run(args) -> int:
     from ..sensor import export_response_csv
-    from ._output import atomic_path, prepare_file, print_json
+    from ._output import atomic_path, prepare_file, print_json, refuse_existing
 
     if args.list:
         return _list(args.json)
     if args.source is None:
         raise ValueError("give a band set NAME|FILE, or --list for the names.")
+    if args.export_csv:
+        refuse_existing(args.export_csv, "--export-csv", args.force)
     for opt, path in (("--export-csv", args.export_csv), ("--plot", args.plot)):
         if path:
             prepare_file(path, opt)

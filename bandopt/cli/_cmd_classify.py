@@ -1,6 +1,6 @@
 """`bandopt classify`: score band sets for lamp-type classification."""
 
-from ._options import add_list_option
+from ._options import add_list_option, bounded, seed_type
 
 
 def register(subparsers):
@@ -45,7 +45,7 @@ def register(subparsers):
     )
     p.add_argument(
         "--modelled-per-class",
-        type=int,
+        type=bounded(int, lo=0, why="(a count)"),
         default=0,
         metavar="N",
         help="also train on N modelled lamps per rare class (mercury, "
@@ -76,7 +76,7 @@ def register(subparsers):
     )
     p.add_argument(
         "--mixtures",
-        type=int,
+        type=bounded(int, lo=0, why="(a count)"),
         default=0,
         metavar="N",
         help="inversion only: also put pairwise blends of two measured lamps of "
@@ -128,7 +128,9 @@ def register(subparsers):
         choices=("auto", "none"),
         help="auto: the 6S atmospheres when their tables are installed",
     )
-    p.add_argument("--seed", type=int, default=0, help="noise seed (folds: seed 0)")
+    p.add_argument(
+        "--seed", type=seed_type(), default=0, help="noise seed (folds: seed 0)"
+    )
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.add_argument(
         "--plot",

@@ -1,7 +1,7 @@
 """`bandopt evaluate`: LER, G and CCT of user lamp spectra, true and estimated
 from the band radiances of a band set."""
 
-from ._options import add_list_option
+from ._options import add_list_option, bounded
 
 
 SCENE = {
@@ -34,13 +34,15 @@ def register(subparsers):
         "evaluate",
         help="true and estimated LER, G, CCT of lamp spectra for a band set",
         description=(
-            "Train the brightness-free ridge estimators of LER, G index and CCT for a "
-            "band set on the built-in lamp library (scored lamps, scenario preset "
-            "'search'; ridge strength and feature degree by lamp-grouped CV), then, "
-            "for each lamp spectrum file, report the truth (from the full spectrum) "
-            "and the "
-            "estimates from the band radiances of that lamp lighting the default scene "
-            f"{SCENE}. " + NIR_POLICY
+            "Estimate LER, G index and CCT of your lamp spectra from the band "
+            "radiances of a band set, by default with the physics-based inversion "
+            "(a prior of the built-in lamp library, calibrated 90 % intervals, "
+            "level-1 lamp-type probabilities and an unexplained flag; "
+            "--estimator ridge|kernel for the brightness-free regression baselines "
+            "trained on the library, direct for the library-free estimate): for "
+            "each lamp spectrum file, the truth (from the full spectrum) and the "
+            "estimates from the band radiances of that lamp lighting the default "
+            f"scene {SCENE}. " + NIR_POLICY
         ),
     )
     p.add_argument(
@@ -84,7 +86,7 @@ def register(subparsers):
     )
     p.add_argument(
         "--modelled-per-class",
-        type=int,
+        type=bounded(int, lo=0, why="(a count)"),
         default=0,
         metavar="N",
         help="inversion only: also put N modelled lamps per rare class (lps, "
@@ -96,7 +98,7 @@ def register(subparsers):
     )
     p.add_argument(
         "--mixtures",
-        type=int,
+        type=bounded(int, lo=0, why="(a count)"),
         default=MIXTURES_DEFAULT,
         metavar="N",
         help="inversion only: also put pairwise blends of two measured library "
@@ -236,33 +238,22 @@ parser is built without JAX)."""
 
 
 def read_reflectance(path, grid):
-    """Two-column reflectance file -> values on `grid` (380-900 nm) [1]; errors
-    name the file and the problem."""
+    """Reflectance file -> values on `grid` (380-900 nm) [1], read by the one
+    reader of every spectral file (`datasets.loaders.read_spectrum`: header
+    line, `,`/`;`/tab/space separators, comments, LI-1800 and TM-27 files);
+    errors name the file and the problem."""
     import numpy as np
 
-    try:
-        data = np.loadtxt(
-            path,
-            delimiter=None if not str(path).endswith(".csv") else ",",
-            comments="#",
-            ndmin=2,
-        )
-    except (OSError, ValueError) as exc:
+    from ..datasets.loaders import read_spectrum
+
+    sp = read_spectrum(path, require_range_nm=(float(grid[0]), float(grid[-1])))
+    w, r = np.asarray(sp.wavelength_nm, float), np.asarray(sp.values, float)
+    if r.max() > 1:
+        i = int(np.argmax(r))
         raise ValueError(
-            f"{path}: cannot read a two-column reflectance table ({exc})"
-        ) from None
-    if data.shape[1] < 2 or data.shape[0] < 10:
-        raise ValueError(f"{path}: need >= 10 rows of 'wavelength_nm reflectance'.")
-    w, r = data[:, 0], data[:, 1]
-    if not np.all(np.diff(w) > 0):
-        raise ValueError(f"{path}: wavelengths must increase strictly.")
-    if w[0] > grid[0] or w[-1] < grid[-1]:
-        raise ValueError(
-            f"{path}: reflectance covers {w[0]:g}-{w[-1]:g} nm; need "
-            f"{grid[0]:g}-{grid[-1]:g} nm."
+            f"{path}: reflectance {r[i]:g} at {w[i]:g} nm is above 1; give "
+            "reflectance as a fraction 0-1."
         )
-    if not np.all(np.isfinite(r)) or r.min() < 0 or r.max() > 1:
-        raise ValueError(f"{path}: reflectance must be finite and within 0-1.")
     return np.interp(grid, w, r)
 
 
@@ -290,6 +281,7 @@ def load_user_lamp(path, nir="auto"):
 
     sp = read_spectrum(path)
     w, s = np.asarray(sp.wavelength_nm, float), np.asarray(sp.values, float)
+    s = s / s.max()  # peak 1: the scene scales every lamp to its lux anyway
     if w[0] > 380.0 or w[-1] < 780.0:
         raise ValueError(
             f"{path}: spectrum covers {w[0]:g}-{w[-1]:g} nm; need 380-780 nm."
@@ -547,6 +539,46 @@ def parse_prior_lamps(entries) -> list[tuple[str, str]]:
     return out
 
 
+def visible_centroid_nm(spectra, grid):
+    """Power-weighted mean wavelength over 380-780 nm of each spectrum (l, w)
+    on `grid`; NaN for a spectrum without visible power. [nm]"""
+    import numpy as np
+
+    vis = (grid >= 380.0) & (grid <= 780.0)
+    s = np.asarray(spectra, float)[:, vis]
+    power = np.trapezoid(s, grid[vis], axis=1)
+    moment = np.trapezoid(s * grid[vis], grid[vis], axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(power > 0, moment / power, np.nan)
+
+
+def prior_class_warning(cls: str, path, spectrum, grid) -> str | None:
+    """A warning when a `--prior-lamps CLASS=FILE` spectrum's visible centroid
+    lies outside the range of the library's measured lamps of CLASS (a 450 nm
+    line given as led_amber, whose lamps lie near 600 nm): the class is
+    probably wrong. A warning, not an error: a new lamp of the class may lie
+    a little outside the library's."""
+    import numpy as np
+
+    from ..datasets.lamps import library
+
+    lib = library(wavelength_nm=grid).select(lamps_only=True)
+    members = [i for i, r in enumerate(lib.records) if r.level2 == cls]
+    ok = [i for i in members if np.all(np.isfinite(lib.values[i]))]
+    if not ok:
+        return None
+    ref = visible_centroid_nm(lib.values[ok], grid)
+    (c,) = visible_centroid_nm(np.asarray(spectrum, float)[None], grid)
+    lo, hi = float(np.nanmin(ref)), float(np.nanmax(ref))
+    if np.isfinite(c) and lo <= c <= hi:
+        return None
+    return (
+        f"--prior-lamps {cls}={path}: its visible centroid "
+        f"{c:.0f} nm lies outside the {lo:.0f}-{hi:.0f} nm of the library's "
+        f"{len(ok)} {cls} lamps; is it a {cls} lamp?"
+    )
+
+
 def prior_lamp_names(paths) -> list[str]:
     """Each `--prior-lamps` file's name in the prior (ids `own:<name>`): its
     file name, or its path where two files share a name."""
@@ -710,7 +742,7 @@ def run(args) -> int:
     import jax.numpy as jnp
     import numpy as np
 
-    from ..estimate import METRICS, lamp_truth
+    from ..estimate import METRICS, truth_with_reasons
     from ..photometry import ler as ler_fn
     from ..scene import band_weights, class_illuminance_lx
     from ..search import get_context
@@ -779,11 +811,22 @@ def run(args) -> int:
             tiling_edges(bands)  # before any lamp is read or anything trains
         except ValueError as exc:
             raise ValueError(f"--bands {args.bands}: {exc}") from None
+        if args.surface is None:
+            raise ValueError(
+                "--estimator direct needs --surface NAME|FILE: it divides the "
+                "surface out of the band values, and with the library's mean "
+                "reflectance instead its errors are large (results/estimate_bands)."
+            )
     warnings = band_set_warnings(bands, args.bands, log=sys.stderr)
     check_nir(args.nir)
     lamps = [load_user_lamp(p, args.nir) for p in args.lamps]  # before training
     prior_files = parse_prior_lamps(args.prior_lamps)
     prior_loaded = [load_user_lamp(p, args.nir) for _, p in prior_files]
+    for (cls, p), (spectra, _) in zip(prior_files, prior_loaded, strict=True):
+        w = prior_class_warning(cls, p, spectra[0], np.asarray(GRID_1NM, float))
+        if w is not None:
+            warnings.append(w)
+            print(f"warning: {w}", file=sys.stderr)
     args.own_lamps = (
         (
             prior_lamp_names([p for _, p in prior_files]),
@@ -802,10 +845,10 @@ def run(args) -> int:
     wts = np.asarray(band_weights(jnp.asarray(resp), jnp.asarray(grid)))
     vis = (grid >= 380) & (grid <= 780)
 
-    truths, notes, band_rad, owner = [], [], [], []
+    truths, true_why, notes, band_rad, owner = [], [], [], [], []
     for k, (candidates, note) in enumerate(lamps):
         values = candidates[0]  # the truth is visible-only: any candidate
-        truth, valid = lamp_truth(values[None], grid)
+        truth, why = truth_with_reasons(values[None], grid)
         # lumens ∝ K_m ∫ V S dλ = LER · ∫ S dλ (380-780 nm)
         lumens = float(ler_fn(values[None, vis], grid[vis])[0]) * float(
             np.trapezoid(values[vis], grid[vis])
@@ -816,10 +859,11 @@ def run(args) -> int:
             owner.append(k)
         truths.append(
             {
-                m: (float(truth[0, i]) if valid[0, i] else None)
+                m: (float(truth[0, i]) if np.isfinite(truth[0, i]) else None)
                 for i, m in enumerate(METRICS)
             }
         )
+        true_why.append(why[0])
         if note:
             notes.append(note)
     band_rad = np.asarray(band_rad)
@@ -861,11 +905,12 @@ def run(args) -> int:
         for k in range(len(lamps))
     ]
     rows = []
-    for path, t, r in zip(args.lamps, truths, est_rows, strict=True):
+    for path, t, tw, r in zip(args.lamps, truths, true_why, est_rows, strict=True):
         rows.append(
             {
                 "file": str(path),
                 "true": t,
+                "true_null_reasons": tw,
                 "estimate": r["estimate"],
                 "interval90": r["interval90"],
                 "null_reasons": r["null_reasons"],

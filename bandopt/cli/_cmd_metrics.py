@@ -31,9 +31,14 @@ def register(subparsers):
 
 
 def spectrum_metrics(loaded) -> dict:
-    """Photometry of one `LoadedSpectrum` on the 1 nm grid inside its range."""
+    """Photometry of one `LoadedSpectrum` on the 1 nm grid inside its range;
+    LER, G and CCT undefined by the rule `bandopt evaluate` uses for its
+    truth (`estimate.truth_with_reasons`), with the reason."""
+    import math
+
     import numpy as np
 
+    from ..estimate import truth_with_reasons
     from ..photometry import ler, metrics
 
     lo = np.ceil(loaded.wavelength_nm[0])
@@ -42,42 +47,26 @@ def spectrum_metrics(loaded) -> dict:
     values = np.interp(grid, loaded.wavelength_nm, loaded.values)
     vis = (grid >= 380.0) & (grid <= 780.0)
     m = metrics(values[None, vis], grid[vis])
+    truth, reasons = truth_with_reasons(values[None], grid)
     full = float(np.asarray(ler(values[None], grid, denominator="full"))[0])
-    visible_power = (
-        float(np.trapezoid(values[vis], grid[vis])) if vis.sum() > 1 else 0.0
-    )
     row = {
         "file": loaded.path,
-        "LER": float(m["LER"][0]),
+        "LER": float(truth[0, 0]),
         "LER_full_range": full,
-        "G": float(m["G"][0]),
+        "G": float(truth[0, 1]),
         "G_flag": bool(m["G_flag"][0]),
-        "CCT": float(m["CCT"][0]),
+        "CCT": float(truth[0, 2]),
         "Duv": float(m["Duv"][0]),
         "CCT_flag": bool(m["CCT_flag"][0]),
     }
-    if not visible_power > 0:  # G compares blue with V(λ)-weighted light: 0/0
-        row["G"] = float("nan")
-    return _null_reasons(row, visible_power)
-
-
-def _null_reasons(row: dict, visible_power: float) -> dict:
-    """Replace each non-finite value by None and say why in `null_reason`
-    (JSON has no NaN; a reader must not take a missing number for a result)."""
-    import math
-
-    why = (
-        "no light in 380-780 nm (visible power 0): undefined"
-        if not visible_power > 0
-        else "not defined for this spectrum (computation gave NaN)"
-    )
-    reasons = {}
+    why = dict(reasons[0])
+    other = why.get("LER", "not defined for this spectrum (computation gave NaN)")
     for k, v in row.items():
         if isinstance(v, float) and not math.isfinite(v):
             row[k] = None
-            reasons[k] = why
-    if reasons:
-        row["null_reason"] = reasons
+            why.setdefault(k, other)
+    if why:
+        row["null_reason"] = why
     return row
 
 

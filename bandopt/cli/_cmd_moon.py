@@ -2,6 +2,18 @@
 
 import re
 
+from ._options import bounded
+
+
+FIELD_OPTIONS = {
+    "lat_deg": "--lat",
+    "lon_deg": "--lon",
+    "local_time": "--overpass",
+    "nights": "--nights",
+    "first_date": "--date",
+}
+"""Library argument names in error messages and the options that set them."""
+
 
 _REPORT_NM = (450.0, 550.0, 650.0, 850.0)
 
@@ -27,8 +39,18 @@ def register(subparsers):
         required=True,
         help="YYYY-MM-DD (local date, Moon at --overpass) or YYYY-MM-DDTHH:MM (UTC)",
     )
-    p.add_argument("--lat", type=float, required=True, help="latitude [deg, north +]")
-    p.add_argument("--lon", type=float, required=True, help="longitude [deg, east +]")
+    p.add_argument(
+        "--lat",
+        type=bounded(lo=-90.0, hi=90.0, why="deg"),
+        required=True,
+        help="latitude, -90 to 90 [deg, north +]",
+    )
+    p.add_argument(
+        "--lon",
+        type=bounded(lo=-180.0, hi=360.0, why="deg"),
+        required=True,
+        help="longitude, -180 to 180, or 0 to 360 east [deg, east +]",
+    )
     p.add_argument(
         "--overpass",
         default=None,
@@ -37,7 +59,7 @@ def register(subparsers):
     )
     p.add_argument(
         "--nights",
-        type=int,
+        type=bounded(int, lo=1, why="(nights)"),
         default=1,
         help="report/plot this many consecutive nights from --date (30: a lunation)",
     )
@@ -45,7 +67,20 @@ def register(subparsers):
     p.add_argument(
         "--plot", default=None, metavar="FILE", help="plot the spectra to FILE"
     )
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, field_options=FIELD_OPTIONS)
+
+
+def _check_last_night(first, nights: int) -> None:
+    """Refuse, before any night is computed, a run whose last night lies
+    beyond the calendar (`datetime.date.max`, 9999-12-31)."""
+    import datetime as dt
+
+    room = (dt.date.max - first).days + 1
+    if nights > room:
+        raise ValueError(
+            f"--nights {nights}: from {first.isoformat()} the calendar ends after "
+            f"{room} nights (on {dt.date.max.isoformat()}); give at most {room}."
+        )
 
 
 def _states(args):
@@ -59,6 +94,7 @@ def _states(args):
             day = dt.date.fromisoformat(text)
         except ValueError:
             raise ValueError(f"--date {text!r} is not a valid calendar date.") from None
+        _check_last_night(day, args.nights)
         return moon.moon_over_nights(
             day, args.lat, args.lon, args.overpass or "01:30", args.nights
         )
@@ -71,8 +107,7 @@ def _states(args):
             when = dt.datetime.fromisoformat(text.replace(" ", "T"))
         except ValueError:
             raise ValueError(f"--date {text!r} is not a valid date and time.") from None
-        if args.nights < 1:
-            raise ValueError(f"--nights must be >= 1, got {args.nights}.")
+        _check_last_night(when.date(), args.nights)
         return tuple(
             moon.moon_state(when + dt.timedelta(days=k), args.lat, args.lon)
             for k in range(args.nights)

@@ -1,5 +1,6 @@
 """`bandopt optimise`: search the bands that best estimate LER, G and/or CCT."""
 
+from ._options import bounded, seed_type
 from ._output import add_locked_out
 
 
@@ -26,7 +27,7 @@ def register(subparsers):
     )
     p.add_argument(
         "--bands",
-        type=int,
+        type=bounded(int, lo=1, hi=12, why="(free bands)"),
         required=True,
         metavar="N",
         help="number of free bands (1-12)",
@@ -43,10 +44,10 @@ def register(subparsers):
         help="photon noise (thesis Table 2.3 sensor) at an EN 13201 class "
         "(e.g. P4) or a mean radiance [W m-2 sr-1 nm-1]",
     )
-    p.add_argument("--seed", type=int, default=0, help="search and fold seed")
+    p.add_argument("--seed", type=seed_type(), default=0, help="search and fold seed")
     p.add_argument(
         "--max-evals",
-        type=int,
+        type=bounded(int, lo=1, why="(objective evaluations)"),
         default=400,
         metavar="N",
         help="objective evaluations per global search (default 400)",
@@ -68,33 +69,28 @@ def register(subparsers):
         action="store_true",
         help="recompute task files in DIR/tasks that are corrupt (else an error)",
     )
-    p.add_argument(
-        "--json", action="store_true", help="print metrics.json on stdout"
-    )
+    p.add_argument("--json", action="store_true", help="print metrics.json on stdout")
     p.set_defaults(func=run)
 
 
 def check_task_files(tasks, out, *, force: bool, log) -> None:
-    """A task file that does not parse (a run killed while the disk was full,
-    an edited file) is named; with `force` it is removed and recomputed."""
-    import json
-
-    from ..search import task_path
+    """A task file that is not its task's result (a run killed while the disk
+    was full, an edited file, one copied from another run: `read_task_file`)
+    is named; with `force` it is removed and recomputed."""
+    from ..search import read_task_file, task_path
 
     for t in tasks:
         p = task_path(out, t)
         if not p.is_file():
             continue
         try:
-            json.loads(p.read_text())
-        except (ValueError, UnicodeDecodeError) as err:
+            read_task_file(p, t)
+        except ValueError as err:
             if not force:
-                raise ValueError(
-                    f"{p}: corrupt task file ({err}); rerun with --force to "
-                    "recompute it."
-                ) from None
+                raise ValueError(f"{err} Rerun with --force to recompute it.") from None
             p.unlink()
-            print(f"note: {p}: corrupt ({err}); recomputing (--force)", file=log)
+            why = str(err).rstrip(".")
+            print(f"note: {why}; recomputing (--force)", file=log)
 
 
 def run(args) -> int:
@@ -114,6 +110,10 @@ def run(args) -> int:
         )
     with OutputLock(args.out) as lock:
         return _optimise(args, lock.directory)
+
+
+TIMING_KEYS = ("wall_s", "trace_s")
+"""Wall-clock fields of a search result, reported under `timing` only."""
 
 
 def _optimise(args, out) -> int:
@@ -162,12 +162,22 @@ def _optimise(args, out) -> int:
         upper_nm=final["bands"]["range_nm"][1],
         min_fwhm_nm=1.0,
     )
+    search = {k: final[k] for k in ("loss", "spread", "global", "local")}
+    glob = dict(search["global"])
+    timing = {k: glob.pop(k) for k in TIMING_KEYS if k in glob}
+    search["global"] = glob
     metrics = {
         "target": args.target,
         "bands": final["bands"],
-        "final_search": {k: final[k] for k in ("loss", "spread", "global", "local")},
+        "final_search": search,
         "noise": args.noise,
         "context": ctx.config,
+        # wall-clock times differ between identical runs: kept apart, so the
+        # rest of metrics.json is the same for the same seed
+        "timing": {
+            "final_search_global": timing,
+            "task_wall_s": [r.get("wall_s") for r in res],
+        },
     }
     if not args.no_folds:
         idx = [i for r in res[:3] for i in r["lamp_index"]]

@@ -1,8 +1,20 @@
 """`bandopt radiometry`: detection limit, saturation, SNR/NER and bit depth of a
 band set (thesis section 4.2)."""
 
-from ._options import add_list_option
+from ._options import add_list_option, bounded, gsd_type, seed_type
 from ._output import add_locked_out
+
+
+FIELD_OPTIONS = {
+    "snr_target": "--snr",
+    "dim_percentile": "--dim-percentile",
+    "headroom": "--headroom",
+    "gsd_m": "--gsd",
+    "read_noise_e": "--read-noise",
+    "dark_current_e_s": "--dark-current",
+    "tdi_stages": "--tdi",
+}
+"""Library argument names in error messages and the options that set them."""
 
 
 def register(subparsers):
@@ -46,19 +58,19 @@ def register(subparsers):
     )
     p.add_argument(
         "--snr",
-        type=float,
+        type=bounded(lo=0.0, lo_open=True, why="(SNR)"),
         default=10.0,
         help="SNR target at the detection limit [1] (default 10)",
     )
     p.add_argument(
         "--dim-percentile",
-        type=float,
+        type=bounded(lo=0.0, hi=100.0, why="%"),
         default=5.0,
         help="percentile over lamps of the dim scenes [%%] (default 5)",
     )
     p.add_argument(
         "--headroom",
-        type=float,
+        type=bounded(lo=1.0, why="(saturation at or above the brightest scene)"),
         default=2.0,
         help="saturation margin above the brightest scene [1] (default 2)",
     )
@@ -69,21 +81,29 @@ def register(subparsers):
     )
     p.add_argument(
         "--gsd",
-        type=float,
+        type=gsd_type(),
         default=None,
         metavar="M",
         help="integration time from this GSD at 600 km [m] (default: Table 2.3)",
     )
     p.add_argument(
-        "--read-noise", type=float, default=0.0, help="read noise [e-] (default 0)"
+        "--read-noise",
+        type=bounded(lo=0.0, why="e-"),
+        default=0.0,
+        help="read noise [e-] (default 0)",
     )
     p.add_argument(
         "--dark-current",
-        type=float,
+        type=bounded(lo=0.0, why="e-/s"),
         default=0.0,
         help="dark current [e-/s] (default 0)",
     )
-    p.add_argument("--tdi", type=int, default=256, help="TDI stages (default 256)")
+    p.add_argument(
+        "--tdi",
+        type=bounded(int, lo=1, why="(TDI stages)"),
+        default=256,
+        help="TDI stages (default 256)",
+    )
     p.add_argument(
         "--recommend",
         default=None,
@@ -99,11 +119,9 @@ def register(subparsers):
         help="library lamp ids to use (see `bandopt library`)",
         default_help="all",
     )
-    p.add_argument("--seed", type=int, default=0, help="noise seed")
-    p.add_argument(
-        "--json", action="store_true", help="print summary.json on stdout"
-    )
-    p.set_defaults(func=run)
+    p.add_argument("--seed", type=seed_type(), default=0, help="noise seed")
+    p.add_argument("--json", action="store_true", help="print summary.json on stdout")
+    p.set_defaults(func=run, field_options=FIELD_OPTIONS)
 
 
 def write_csv(rows: list[dict], path) -> None:
@@ -154,8 +172,7 @@ def run(args) -> int:
 
     from ..radiometry import LimitRule, RadiometryConfig, compute, load_band_set
     from ..results import update_recommendation
-    from ..sensor import SensorParams
-    from ._checks import coverage_check
+    from ._checks import coverage_check, sensor_for_gsd
     from ._output import OutputLock, prepare_file, print_json
 
     recommend = None
@@ -170,7 +187,7 @@ def run(args) -> int:
         dark_current_e_s=args.dark_current,
         tdi_stages=args.tdi,
     )
-    params = SensorParams.for_gsd(args.gsd, **kw) if args.gsd else SensorParams(**kw)
+    params = sensor_for_gsd(args.gsd, **kw)
     rule = LimitRule(
         snr_target=args.snr,
         dim_percentile=args.dim_percentile,

@@ -1,7 +1,15 @@
 """`bandopt render`: render a road-lighting layout and see it at one or more GSDs."""
 
-from ._options import add_list_option
+from ._options import add_list_option, bounded, gsd_type, seed_type
 from ._output import add_locked_out
+
+
+FIELD_OPTIONS = {
+    "gsd_m": "--gsd",
+    "mtf_nyquist": "--mtf-nyquist",
+    "visibility_km": "--atmosphere VIS_KM",
+}
+"""Library argument names in error messages and the options that set them."""
 
 
 def register(subparsers):
@@ -29,7 +37,7 @@ def register(subparsers):
     add_list_option(
         p,
         "--gsd",
-        type=float,
+        type=gsd_type(),
         default=[10.0],
         metavar="M",
         help="ground sample distances [m]",
@@ -48,7 +56,7 @@ def register(subparsers):
         metavar="M",
         help="fine grid step in metres (default 0.25); GSDs must be multiples",
     )
-    p.add_argument("--seed", type=int, default=0, help="noise seed")
+    p.add_argument("--seed", type=seed_type(), default=0, help="noise seed")
     p.add_argument(
         "--no-noise", action="store_true", help="skip noise and quantisation"
     )
@@ -59,7 +67,7 @@ def register(subparsers):
     )
     p.add_argument(
         "--mtf-nyquist",
-        type=float,
+        type=bounded(lo=0.0, hi=1.0, lo_open=True, hi_open=True, why="(MTF)"),
         default=None,
         help="PSF from its MTF at Nyquist instead of FWHM = GSD",
     )
@@ -79,7 +87,7 @@ def register(subparsers):
         "isolated (direct only) or uniform (total transmittance per pixel); "
         "only with --atmosphere",
     )
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, field_options=FIELD_OPTIONS)
 
 
 def _bands(source: str):
@@ -159,6 +167,12 @@ def run(args) -> int:
             raise ValueError(
                 f"--atmosphere: visibility {vis!r} is not a number"
             ) from None
+    if args.neighbourhood is not None and atmosphere is None:
+        raise ValueError(
+            f"--neighbourhood {args.neighbourhood}: the neighbourhood is what the "
+            "diffuse upward transmittance sees, so it needs --atmosphere (without "
+            "one there is no diffuse transmittance)."
+        )
     if args.neighbourhood is not None:
         from ..scene import resolve_neighbourhood
 

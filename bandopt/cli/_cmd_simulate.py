@@ -1,6 +1,17 @@
 """`bandopt simulate`: band radiances of a scenario set, with every label."""
 
-from ._options import add_list_option
+from ._options import add_list_option, bounded, gsd_type, seed_type
+
+
+FIELD_OPTIONS = {
+    "moon_zenith_deg": "--moon-zenith",
+    "zenith_deg": "--moon-zenith",  # the 6S tables name the Moon zenith so
+    "uplight_ratio": "--uplight",
+    "gsd_m": "--gsd",
+    "bit_depth": "--bits",
+    "visibility_km": "--atmospheres VIS_KM",
+}
+"""Library argument names in error messages and the options that set them."""
 
 
 def register(subparsers):
@@ -53,10 +64,13 @@ def register(subparsers):
     )
     p.add_argument(
         "--moon-zenith",
-        type=float,
+        type=bounded(
+            lo=0.0, hi=90.0, hi_open=True, why="deg (90 puts the Moon on the horizon)"
+        ),
         default=30.0,
         metavar="DEG",
-        help="Moon zenith angle [deg] (default 30)",
+        help="Moon zenith angle, 0 to below 90 (the Moon above the horizon; "
+        "with a 6S atmosphere at most its table's 75) [deg] (default 30)",
     )
     add_list_option(
         p,
@@ -67,7 +81,7 @@ def register(subparsers):
     )
     p.add_argument(
         "--uplight",
-        type=float,
+        type=bounded(lo=0.0, hi=0.5, why="(upward light output ratio)"),
         default=0.0,
         metavar="RATIO",
         help="upward light output ratio 0-0.5 (default 0)",
@@ -96,21 +110,21 @@ def register(subparsers):
     )
     p.add_argument(
         "--gsd",
-        type=float,
+        type=gsd_type(),
         default=None,
         metavar="M",
-        help="ground sample distance setting the integration time [m] "
+        help="ground sample distance setting the integration time, > 0 [m] "
         "(default: none, the Table 2.3 integration time)",
     )
     p.add_argument(
         "--bits",
-        type=int,
+        type=bounded(int, lo=1, hi=53, why="(float64 holds integers exactly to 2^53)"),
         default=None,
         metavar="N",
-        help="quantise to N bits between the noise-free minimum and maximum "
-        "radiance of each band (default: none)",
+        help="quantise to N bits (1-53) between the noise-free minimum and maximum "
+        "radiance of each band, which must differ (default: none)",
     )
-    p.add_argument("--seed", type=int, default=0, help="noise seed")
+    p.add_argument("--seed", type=seed_type(), default=0, help="noise seed")
     p.add_argument(
         "--out",
         required=True,
@@ -119,11 +133,16 @@ def register(subparsers):
         ".parquet/.csv file name",
     )
     p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace an existing --out .parquet/.csv file (else an error)",
+    )
+    p.add_argument(
         "--json",
         action="store_true",
         help="print a JSON summary (file, shape, radiance range per band) on stdout",
     )
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, field_options=FIELD_OPTIONS)
 
 
 def _atm(text: str):
@@ -165,9 +184,25 @@ def _entry(text: str, what: str):
 
 
 def run(args) -> int:
-    import sys
     from pathlib import Path
 
+    from ._output import made_dir, prepare_file, refuse_existing
+
+    out = Path(args.out)
+    if out.suffix.lower() not in (".parquet", ".csv"):
+        # any other name is a folder, dots included (run_v1.2); a failed run
+        # removes the folder it created
+        with made_dir(out):
+            return _simulate(args, out / "radiances.parquet", folder=True)
+    refuse_existing(out, "--out", args.force)
+    prepare_file(out, "--out")
+    return _simulate(args, out, folder=False)
+
+
+def _simulate(args, out, *, folder: bool) -> int:
+    import sys
+
+    import numpy as np
     from tqdm import tqdm
 
     from ..forward import simulate, to_frame
@@ -178,21 +213,10 @@ def run(args) -> int:
         DEFAULT_SURFACES,
         build_scenarios,
     )
-    from ..sensor import SensorParams
-    from ._checks import coverage_check
+    from ._checks import coverage_check, sensor_for_gsd
     from ._cmd_bands import _load
-    from ._output import atomic_path, prepare_dir, prepare_file, print_json
+    from ._output import atomic_path, print_json
 
-    out = Path(args.out)
-    folder = out.suffix.lower() not in (".parquet", ".csv")
-    if folder:
-        if out.suffix and not out.is_dir():
-            raise ValueError(
-                f"--out {out}: expected a folder or a .parquet/.csv file name."
-            )
-        prepare_dir(out)
-        out = out / "radiances.parquet"
-    prepare_file(out, "--out")
     bands, _ = _load(args.bands)
     warnings = coverage_check(bands, source=args.bands, log=sys.stderr)
     lamps = args.lamps
@@ -216,12 +240,21 @@ def run(args) -> int:
         uplight_model=args.uplight_model,
         neighbourhood=args.neighbourhood or DEFAULT_NEIGHBOURHOOD,
     )
-    params = SensorParams.for_gsd(args.gsd) if args.gsd else SensorParams()
+    params = sensor_for_gsd(args.gsd)
     limits = None
     if args.bits is not None:
         clean = simulate(scen, bands).radiance
         axes = tuple(range(clean.ndim - 1))
         limits = (clean.min(axis=axes), clean.max(axis=axes))
+        flat = [n for n, a, b in zip(bands.names, *limits, strict=True) if not b > a]
+        if flat:
+            raise ValueError(
+                f"--bits {args.bits}: the quantiser spans each band's noise-free "
+                f"minimum to maximum radiance over the scenarios, and band "
+                f"{', '.join(flat)} has one value (min = max) in this set of "
+                f"{scen.n_lamp_scenes} scenario(s); give more scenarios or leave "
+                "out --bits."
+            )
     frames = []
     # One lamp block at a time keeps memory flat and shows progress on large sets.
     block = max(1, 20000 // max(1, scen.n_lamp_scenes // len(scen.lamp_ids)))
@@ -239,8 +272,13 @@ def run(args) -> int:
             bits=args.bits,
             limits=limits,
         )
+        if not np.all(np.isfinite(sim.radiance)):
+            raise ValueError(
+                f"--gsd {args.gsd:g}: the photon counts overflow float64 (an "
+                f"integration time of {float(params.integration_time_s):.3g} s); "
+                "give a GSD of a real sensor."
+            )
         frames.append(to_frame(sub, sim))
-    import numpy as np
     import pandas as pd
 
     table = pd.concat(frames, ignore_index=True)

@@ -1,5 +1,8 @@
 """`bandopt surfaces`: the measured surface reflectance library at a glance."""
 
+from ._options import bounded
+
+
 REPORT_NM = (450.0, 550.0, 650.0, 850.0, 1000.0)
 
 
@@ -20,7 +23,7 @@ def register(subparsers):
     p.add_argument(
         "--percentiles",
         nargs=2,
-        type=float,
+        type=bounded(lo=0.0, hi=100.0, why="%"),
         default=(5.0, 95.0),
         metavar=("LOW", "HIGH"),
         help="percentiles of the spread band [%%] (default 5 95)",

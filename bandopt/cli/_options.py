@@ -22,6 +22,7 @@ Fixed-arity tuples (`render --atmosphere ATMOSPHERE AEROSOL VIS_KM`,
 """
 
 import argparse
+import math
 import os
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -75,7 +76,7 @@ class ListAction(argparse.Action):
                     )
                 try:
                     items.append(self.item_type(text))
-                except (TypeError, ValueError) as err:
+                except (TypeError, ValueError, argparse.ArgumentTypeError) as err:
                     # int('x') and float('x') say nothing ours does not
                     plain = self.item_type in (int, float) or not str(err)
                     detail = "" if plain else f" ({err})"
@@ -139,3 +140,70 @@ def add_list_option(
         metavar=metavar,
         help=text,
     )
+
+
+EARTH_CIRCUMFERENCE_M = 2 * math.pi * 6371e3
+"""Largest GSD: the circumference of the sensor model's spherical Earth
+(`bandopt.sensor`, R = 6371 km); a pixel cannot be wider than the Earth.
+Stated here, not imported, so that building the parser imports no JAX."""
+
+
+def gsd_type() -> Callable[[str], float]:
+    """The argparse `type` of every `--gsd`: > 0 and at most the Earth's
+    circumference. [m]"""
+    return bounded(
+        lo=0.0, lo_open=True, hi=EARTH_CIRCUMFERENCE_M, why="m (a pixel on the Earth)"
+    )
+
+
+SEED_MAX = 2**32 - 1
+"""Largest seed: numpy's `RandomState` and a 32-bit JAX key take 0..2**32-1."""
+
+
+def bounded(
+    kind: Callable[[str], Any] = float,
+    *,
+    lo: float | int | None = None,
+    hi: float | int | None = None,
+    lo_open: bool = False,
+    hi_open: bool = False,
+    why: str = "",
+) -> Callable[[str], Any]:
+    """An argparse `type` for a number that must be finite and lie in a range.
+
+    The value is parsed with `kind` (`int` or `float`); NaN, infinity and a
+    value outside `lo`/`hi` (open ends excluded) raise
+    `argparse.ArgumentTypeError`, which argparse reports as a usage error
+    (exit 2) naming the option: `argument --moon-zenith: 95 is outside
+    [0, 90) deg (the Moon above the horizon)`. `why` says what the range
+    means, with its unit.
+    """
+    left = "(" if lo_open else "["
+    right = ")" if hi_open else "]"
+    span = f"{left}{'-inf' if lo is None else f'{lo:g}'}, "
+    span += f"{'inf' if hi is None else f'{hi:g}'}{right}"
+    tail = f" {why}" if why else ""
+
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except (TypeError, ValueError):
+            name = "an integer" if kind is int else "a number"
+            raise argparse.ArgumentTypeError(
+                f"{text!r} is not {name}; expected {span}{tail}"
+            ) from None
+        x = float(value) if kind is not int else value
+        bad = (kind is not int and x != x) or x in (float("inf"), float("-inf"))
+        bad = bad or (lo is not None and (x < lo or (lo_open and x == lo)))
+        bad = bad or (hi is not None and (x > hi or (hi_open and x == hi)))
+        if bad:
+            raise argparse.ArgumentTypeError(f"{text} is outside {span}{tail}")
+        return value
+
+    parse.__name__ = getattr(kind, "__name__", "number")
+    return parse
+
+
+def seed_type() -> Callable[[str], int]:
+    """The argparse `type` of every `--seed`: an integer in 0..`SEED_MAX`."""
+    return bounded(int, lo=0, hi=SEED_MAX, why="(a random seed)")

@@ -9,6 +9,11 @@
 - `OutputLock`: refuse a second run writing into the same `--out` folder
   while the first is alive (an `fcntl` lock on `<out>/.bandopt.lock`; the
   kernel releases it when the process dies, so a killed run never blocks).
+  The lock file is removed when the run ends, and a folder the run created
+  is removed again when the run fails before writing anything into it
+  (`made_dir`).
+- `refuse_existing`: a data file the user names (`simulate --out FILE`,
+  `bands --export-csv FILE`) is never replaced without `--force`.
 """
 
 import contextlib
@@ -90,6 +95,34 @@ def prepare_dir(path, what: str = "--out") -> Path:
     return path
 
 
+def refuse_existing(path, option: str, force: bool) -> None:
+    """`ValueError` when output file `path` exists and `force` is off: a
+    user's file is replaced only when they say so."""
+    path = Path(path)
+    if path.exists() and not force:
+        raise ValueError(
+            f"{option} {path}: the file exists; add --force to replace it, or "
+            "choose another name."
+        )
+
+
+@contextlib.contextmanager
+def made_dir(path, what: str = "--out"):
+    """`prepare_dir(path)` for the body; when the body raises and the folder
+    did not exist before, the folder is removed again if it is still empty
+    (a failed run leaves nothing behind)."""
+    path = Path(path)
+    existed = path.exists()
+    prepare_dir(path, what)
+    try:
+        yield path
+    except BaseException:
+        if not existed:
+            with contextlib.suppress(OSError):
+                path.rmdir()  # only when empty
+        raise
+
+
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
@@ -136,25 +169,36 @@ class OutputLock:
         self.directory = Path(directory)
         self.path = self.directory / LOCK_NAME
         self._fh = None
+        self._made = False
 
     def __enter__(self):
+        self._made = not self.directory.exists()
         prepare_dir(self.directory)
-        fh = open(self.path, "a+")
         try:
             import fcntl
         except ImportError:  # not POSIX: no lock (documented)
-            self._fh = fh
+            self._fh = open(self.path, "a+")
             return self
-        try:
-            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            fh.seek(0)
-            holder = fh.read().strip() or "another process"
+        while True:
+            fh = open(self.path, "a+")
+            try:
+                fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                fh.seek(0)
+                holder = fh.read().strip() or "another process"
+                fh.close()
+                self._drop_made_dir()
+                raise ValueError(
+                    f"{self.directory}: another bandopt run ({holder}) is writing "
+                    "into this --out folder; wait for it or choose another --out."
+                ) from None
+            try:  # the holder before us may have removed the file: lock anew
+                same = os.path.samestat(os.fstat(fh.fileno()), os.stat(self.path))
+            except FileNotFoundError:
+                same = False
+            if same:
+                break
             fh.close()
-            raise ValueError(
-                f"{self.directory}: another bandopt run ({holder}) is writing "
-                "into this --out folder; wait for it or choose another --out."
-            ) from None
         fh.seek(0)
         fh.truncate()
         fh.write(f"pid {os.getpid()}: {' '.join(sys.argv[1:])[:200]}\n")
@@ -162,14 +206,21 @@ class OutputLock:
         self._fh = fh
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, exc_type, *exc):
         if self._fh is not None:
             with contextlib.suppress(OSError):
-                self._fh.seek(0)
-                self._fh.truncate()
+                os.unlink(self.path)  # removed while still locked, then released
             self._fh.close()  # closing releases the flock
             self._fh = None
+        if exc_type is not None:
+            self._drop_made_dir()
         return False
+
+    def _drop_made_dir(self) -> None:
+        """Remove the folder this lock created when nothing was written."""
+        if self._made:
+            with contextlib.suppress(OSError):
+                self.directory.rmdir()  # only when empty
 
 
 def write_manifest(directory, **kwargs) -> Path:

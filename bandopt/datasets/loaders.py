@@ -129,6 +129,12 @@ def validate_spectrum(
     peak = float(values.max())
     if peak <= 0:
         raise ValueError(f"{where}: no positive value (peak {peak:g}).")
+    if peak < np.finfo(float).tiny:
+        raise ValueError(
+            f"{where}: peak {peak:g} is below the smallest normal float64 "
+            f"({np.finfo(float).tiny:g}): its values keep too few digits for "
+            "photometry; multiply them by a constant (results are scale-free)."
+        )
     if values.min() < -NEGATIVE_TOLERANCE * peak:
         i = int(np.argmin(values))
         raise ValueError(
@@ -158,6 +164,41 @@ def _to_energy(wavelength_nm, values, kind):
     if kind == "photon":
         return values * PHOTON_TO_ENERGY_NM / wavelength_nm, "W m-2 nm-1"
     return values, "relative energy"
+
+
+MAX_LINE_CHARS = 1000
+"""Longest line the CSV and PRN readers take. A data line holds two numbers
+(a float64 prints in at most 24 characters), a header or comment line a few
+words; a longer line (a one-line file, a binary file) is refused naming the
+file and line before it is held in memory."""
+
+QUOTE_CHARS = 80
+"""Error messages quote at most this much of a bad line."""
+
+
+def _quote(text: str) -> str:
+    """`text` for an error message: repr, cut to `QUOTE_CHARS` characters."""
+    if len(text) <= QUOTE_CHARS:
+        return repr(text)
+    return repr(text[:QUOTE_CHARS]) + f"... ({len(text)} characters)"
+
+
+def _lines(fh, path):
+    """(line number, stripped line) of text file `fh`, each read with at most
+    `MAX_LINE_CHARS` characters (a longer line raises `ValueError`)."""
+    lineno = 0
+    while True:
+        line = fh.readline(MAX_LINE_CHARS + 1)
+        if not line:
+            return
+        lineno += 1
+        if len(line) > MAX_LINE_CHARS and not line.endswith("\n"):
+            raise ValueError(
+                f"{path}, line {lineno}: longer than {MAX_LINE_CHARS} characters "
+                f"(starts {_quote(line)}); a spectrum file has one "
+                "'wavelength value' pair per line."
+            )
+        yield lineno, line.strip()
 
 
 CSV_CHUNK_ROWS = 100_000
@@ -199,7 +240,7 @@ def _parse_chunk(lines: list[tuple[int, str]], path) -> np.ndarray:
             row = [float(f) for f in fields]
         except ValueError:
             raise ValueError(
-                f"{path}, line {lineno}: cannot read numbers from {s!r}."
+                f"{path}, line {lineno}: cannot read numbers from {_quote(s)}."
             ) from None
         if len(row) != 2:
             raise ValueError(
@@ -234,8 +275,7 @@ def read_csv(
     first = True
     with path.open(encoding="utf-8-sig", errors="strict") as fh:
         try:
-            for lineno, line in enumerate(fh, start=1):
-                stripped = line.strip()
+            for lineno, stripped in _lines(fh, path):
                 if not stripped or stripped.startswith("#"):
                     continue
                 if first:
@@ -285,40 +325,42 @@ def read_prn(
     """
     path = Path(path)
     kind = None
-    rows = []
-    for lineno, line in enumerate(path.read_text(errors="replace").splitlines(), 1):
-        s = line.strip()
-        if not s:
-            continue
-        if s.startswith('"'):
-            upper = s.upper()
-            if upper.startswith('"REM:'):
-                if "QNTM" in upper:
-                    kind = "photon"
-                elif "ENER" in upper:
-                    kind = "energy"
-            continue
-        parts = s.split()
-        try:
-            row = [float(p) for p in parts]
-        except ValueError:
-            raise ValueError(
-                f"{path}, line {lineno}: cannot read numbers from {s!r}."
-            ) from None
-        if len(row) != 2:
-            raise ValueError(
-                f"{path}, line {lineno}: expected 2 columns (wavelength value), "
-                f"found {len(row)}."
-            )
-        rows.append(row)
+    chunks: list[np.ndarray] = []
+    pending: list[tuple[int, str]] = []
+    n_rows = 0
+    with path.open(errors="replace") as fh:
+        for lineno, s in _lines(fh, path):
+            if not s:
+                continue
+            if s.startswith('"'):
+                upper = s.upper()
+                if upper.startswith('"REM:'):
+                    if "QNTM" in upper:
+                        kind = "photon"
+                    elif "ENER" in upper:
+                        kind = "energy"
+                continue
+            pending.append((lineno, s))
+            if len(pending) >= CSV_CHUNK_ROWS:
+                chunks.append(_parse_chunk(pending, path))
+                n_rows += len(pending)
+                pending = []
+                if n_rows > MAX_CSV_ROWS:
+                    raise ValueError(
+                        f"{path}: more than {MAX_CSV_ROWS:,} rows (the limit of "
+                        "the spectrum readers); resample the spectrum first."
+                    )
+    if pending:
+        chunks.append(_parse_chunk(pending, path))
     if kind is None:
         raise ValueError(
             f"{path}: header field REM has no unit (QNTM or ENER); cannot tell "
             "photon from energy units."
         )
-    if not rows:
+    if not chunks:
         raise ValueError(f"{path}: no data rows.")
-    data = np.asarray(rows, float)
+    data = chunks[0] if len(chunks) == 1 else np.concatenate(chunks)
+    del chunks
     data = data[data[:, 0] <= max_wavelength_nm]
     values = validate_spectrum(
         data[:, 0], data[:, 1], where=str(path), require_range_nm=require_range_nm
@@ -377,8 +419,19 @@ def read_spectrum(
     `require_range_nm`: the range it must cover (None: any, e.g. a
     near-infrared part)."""
     path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{path}: is a folder; expected a spectrum file.")
+    if path.exists() and not path.is_file():
+        raise ValueError(f"{path}: not a regular file; expected a spectrum file.")
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such file.")
+    try:
+        return _read_by_suffix(path, unit, require_range_nm)
+    except MemoryError:
+        raise MemoryError(f"{path}: too large to read into memory") from None
+
+
+def _read_by_suffix(path: Path, unit: str, require_range_nm) -> LoadedSpectrum:
     suffix = path.suffix.lower()
     if suffix in (".csv", ".txt", ".dat"):
         return read_csv(path, unit=unit, require_range_nm=require_range_nm)

@@ -16,7 +16,7 @@ import math
 import re
 import statistics
 
-from ._source import ReportInputError, Sources
+from ._source import ReportInputError, ReportUnreadableError, Sources
 
 
 JSON_RTOL = 1e-9
@@ -413,6 +413,8 @@ def check_consistency(src: Sources) -> list[str]:
     for check in CHECKS:
         try:
             out += check(src)
+        except ReportUnreadableError:
+            raise  # a file that cannot be read: named, not a disagreement
         except (KeyError, TypeError, ReportInputError) as err:
             out.append(f"{check.__name__}: a results file lacks a field ({err!r}).")
     return out

@@ -15,6 +15,11 @@ class ReportInputError(ValueError):
     """A results file the report needs is malformed (names file, field, problem)."""
 
 
+class ReportUnreadableError(ReportInputError):
+    """A results file cannot be read at all (not JSON, not UTF-8): the report
+    stops naming it, never counting it as a disagreement between files."""
+
+
 def escape_pointer(token) -> str:
     """One RFC 6901 JSON-pointer token."""
     return str(token).replace("~", "~0").replace("/", "~1")
@@ -107,12 +112,19 @@ class Sources:
         path = self.path(rel)
         if not path.is_file():
             raise FileNotFoundError(f"{path}: results file not found.")
-        text = path.read_text()
+        try:
+            text = path.read_text()
+        except UnicodeDecodeError as err:
+            raise ReportUnreadableError(
+                f"{path}: not a UTF-8 text file ({err})."
+            ) from None
         if rel.endswith(".json"):
             try:
                 data = json.loads(text)
             except json.JSONDecodeError as err:
-                raise ReportInputError(f"{path}: not valid JSON ({err}).") from err
+                raise ReportUnreadableError(
+                    f"{path}: not valid JSON ({err})."
+                ) from None
         elif rel.endswith(".csv"):
             data = list(csv.DictReader(text.splitlines()))
         else:

@@ -84,6 +84,7 @@ from ._sweep import (
     TaskResults as TaskResults,
     load_results as load_results,
     print_progress as print_progress,
+    read_task_file as read_task_file,
     run_sweep as run_sweep,
     task_path as task_path,
 )

@@ -50,6 +50,9 @@ def _write_json(path: Path, data) -> None:
     with os.fdopen(fd, "w") as fh:
         json.dump(data, fh, indent=1, default=float)
         fh.write("\n")
+    mask = os.umask(0)
+    os.umask(mask)
+    os.chmod(tmp, 0o666 & ~mask)  # mkstemp makes 0600; outputs are 0644
     os.replace(tmp, path)
 
 
@@ -183,17 +186,36 @@ def run_sweep(
     return load_results(tasks, out_dir)
 
 
+def read_task_file(path: str | Path, task: dict) -> dict:
+    """The result stored in task file `path` for `task`; `ValueError` naming
+    the file when it does not parse (truncated, edited, not UTF-8), is not a
+    JSON object, or carries another task's key (a file copied from another
+    run): a task file is reused only for the task it was written for."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except (ValueError, UnicodeDecodeError) as err:
+        raise ValueError(f"{path}: corrupt task file ({err}).") from None
+    if not isinstance(data, dict) or not isinstance(data.get("task"), dict):
+        raise ValueError(
+            f"{path}: corrupt task file (not a task result: expected a JSON "
+            f"object with a 'task' key, found {type(data).__name__})."
+        )
+    if task_id(data["task"]) != task_id(task):
+        raise ValueError(
+            f"{path}: corrupt task file (it holds task {task_id(data['task'])}, "
+            f"not {task_id(task)}: copied from another run?)."
+        )
+    return data
+
+
 def load_results(tasks: Sequence[dict], out_dir: str | Path) -> list[dict | None]:
+    """Every task's stored result in task order (None where a task has no
+    file); a file that is not its task's result raises (`read_task_file`)."""
     out = []
     for t in tasks:
         p = task_path(out_dir, t)
-        if not p.is_file():
-            out.append(None)
-            continue
-        try:
-            out.append(json.loads(p.read_text()))
-        except ValueError as err:  # truncated or edited: name the file
-            raise ValueError(f"{p}: corrupt task file ({err}).") from None
+        out.append(read_task_file(p, t) if p.is_file() else None)
     return out
 
 

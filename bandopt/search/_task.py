@@ -12,6 +12,7 @@ import dataclasses
 import functools
 import hashlib
 import json
+import math
 import time
 
 import jax.numpy as jnp
@@ -248,8 +249,11 @@ def parse_noise(level: str | None) -> tuple[dict, bool, float | None]:
             f"--noise {level!r}: expected an EN 13201 class "
             f"{list(LIGHTING_CLASSES)} or a radiance [W m-2 sr-1 nm-1]."
         ) from None
-    if not value > 0:
-        raise ValueError(f"--noise {level!r}: a radiance level must be > 0.")
+    if not (value > 0 and math.isfinite(value)):
+        raise ValueError(
+            f"--noise {level!r}: a radiance level must be finite and > 0 "
+            "[W m-2 sr-1 nm-1]."
+        )
     return {"moons": (None,), "classes": ("P4",)}, True, value
 
 

@@ -124,6 +124,27 @@ def _band_average_policy(bands, spectra, wavelength_nm, outside, tolerance):
     return _check_outside(frac, bands.names, tolerance, avg)
 
 
+SUMMARY_FIELDS = frozenset(
+    {
+        "kind",
+        "grid_nm",
+        "key",
+        "title",
+        "gsd_m",
+        "bit_depth",
+        "detection_limit_w_m2_sr_nm",
+        "citations",
+        "response",
+        "note",
+    }
+)
+"""Top-level fields of `bandopt bands --json` that describe a band set
+without defining it; `BandSet.from_dict` ignores them."""
+
+SUMMARY_BAND_FIELDS = frozenset({"half_max_edges_nm", "fraction_outside_grid"})
+"""Per-band fields of `bandopt bands --json` that `from_dict` ignores."""
+
+
 class BandSet(eqx.Module):
     """`b` super-Gaussian bands (thesis Eq. 2.15) with bounds built in.
 
@@ -400,13 +421,23 @@ class BandSet(eqx.Module):
 
         Each band needs `centre_nm` and `fwhm_nm`, or `edges_nm: [lower, upper]`
         (50 % points); `shape_k` defaults to 6 (thesis) and `name` to `B<i>`.
+        The descriptive fields `bandopt bands --json` adds (`SUMMARY_FIELDS`,
+        `SUMMARY_BAND_FIELDS`) are ignored, so its output reads back.
         An optional top-level `range_nm: [lower, upper]` sets the data range
-        unless `lower_nm`/`upper_nm` are passed. Errors name the file and field.
+        unless `lower_nm`/`upper_nm` are passed; without either, a band whose
+        support leaves `DATA_RANGE_NM` widens the range to its support + 1 nm
+        (as the reference sensors do): how much of its response the data
+        cover is the commands' check (`bandopt.cli._checks`), not a refusal
+        here. Errors name the file and field.
         """
         text_given = isinstance(source, str) and source.lstrip().startswith("{")
         label = "<json text>" if text_given else str(source)
         try:
             text = source if text_given else Path(source).read_text()
+        except UnicodeDecodeError:
+            raise ValueError(
+                f"{label}: not a band-set JSON file (not UTF-8 text)."
+            ) from None
         except OSError as err:
             raise ValueError(f"{label}: cannot read band-set file ({err}).") from err
         try:
@@ -435,7 +466,13 @@ class BandSet(eqx.Module):
 
         if not isinstance(data, dict):
             fail("<top level>", "expected an object with 'name' and 'bands'")
-        unknown = set(data) - {"name", "bands", "range_nm"}
+        if data.get("kind") == "tabulated":
+            fail(
+                "kind",
+                "a tabulated response (`bandopt bands --json` of a tabulated "
+                "sensor) has no centre/FWHM form; give the sensor's name instead",
+            )
+        unknown = set(data) - {"name", "bands", "range_nm", *SUMMARY_FIELDS}
         if unknown:
             fail(sorted(unknown)[0], "unknown field; expected name, bands, range_nm")
         name = data.get("name", Path(label).stem)
@@ -455,7 +492,14 @@ class BandSet(eqx.Module):
             where = f"bands[{i}]"
             if not isinstance(band, dict):
                 fail(where, f"expected an object, got {band!r}")
-            extra = set(band) - {"name", "centre_nm", "fwhm_nm", "shape_k", "edges_nm"}
+            extra = set(band) - {
+                "name",
+                "centre_nm",
+                "fwhm_nm",
+                "shape_k",
+                "edges_nm",
+                *SUMMARY_BAND_FIELDS,
+            }
             if extra:
                 fail(
                     f"{where}.{sorted(extra)[0]}",
@@ -489,6 +533,12 @@ class BandSet(eqx.Module):
             ks.append(k)
         if len(set(names)) != len(names):
             fail("bands[].name", f"band names must be unique, got {names}")
+        lo_edge = min(c - f / 2 for c, f in zip(centres, fwhms, strict=True))
+        hi_edge = max(c + f / 2 for c, f in zip(centres, fwhms, strict=True))
+        if lo_edge < DATA_RANGE_NM[0]:  # the reference sensors' rule (_edges)
+            kwargs.setdefault("lower_nm", lo_edge - 1.0)
+        if hi_edge > DATA_RANGE_NM[1]:
+            kwargs.setdefault("upper_nm", hi_edge + 1.0)
         try:
             return cls.from_physical(
                 centres, fwhms, ks, names=names, name=name, **kwargs

@@ -331,6 +331,11 @@ def resolve_band_set(source: str | os.PathLike) -> BandSetSource:
     reference sensor name (`REFERENCE_SENSORS`, case and separators ignored).
     A missing file or an unknown name raises `ValueError` saying which."""
     path = Path(source)
+    if path.is_dir():
+        raise ValueError(
+            f"{source}: is a folder; a band set is a JSON file or one of "
+            f"{list(REFERENCE_SENSORS)}."
+        )
     if str(source).lower().endswith(".json") or path.is_file():
         if not path.is_file():
             raise ValueError(
