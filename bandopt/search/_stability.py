@@ -443,8 +443,10 @@ def distinct_starts(points, k: int, space, *, min_distance: float = 0.1):
 
 
 @functools.lru_cache(maxsize=32)
-def _single_loss(space, alpha):
-    return jax.jit(lambda data, u, r: design_loss(data, space, alpha, u, r))
+def _single_loss(space):
+    """Jitted `f(data, u, r, alpha)`; `alpha` traced: one compilation serves
+    every objective weight."""
+    return jax.jit(lambda data, u, r, a: design_loss(data, space, a, u, r))
 
 
 def explore(
@@ -460,7 +462,8 @@ def explore(
     seeded `seed + r` for resample `r` and budgeted at `evals_per_dim · d`
     loss values; returns the `restarts` best distinct points of each run
     (`distinct_starts`): `(U (R, K, d), f (R, K), evaluations (R,))`."""
-    value = _single_loss(space, float(alpha))
+    value = _single_loss(space)
+    a = jnp.asarray(alpha, data.toa.dtype)
     n_r, dim = data.train_w.shape[0], space.dim
     budget = int(evals_per_dim) * dim
     if budget < restarts:
@@ -471,7 +474,7 @@ def explore(
     U, F, E = [], [], []
     for r in range(n_r):
         obj = NloptObjective(
-            lambda x, r=r: value(data, jnp.asarray(x, data.toa.dtype), r),
+            lambda x, r=r: value(data, jnp.asarray(x, data.toa.dtype), r, a),
             None,
             budget,
             keep_points=True,
@@ -497,31 +500,31 @@ def explore(
 
 
 @functools.lru_cache(maxsize=32)
-def _local_fits(space, alpha, max_steps: int, rtol: float, atol: float):
-    """Jitted `f(z0 (R, K, d), data) -> (z, loss, result, steps)`: one
-    optimistix BFGS fit per resample and start, vmapped over both."""
+def _local_fits(space, max_steps: int, rtol: float, atol: float):
+    """Jitted `f(z0 (R, K, d), data, alpha) -> (z, loss, result, steps)`: one
+    optimistix BFGS fit per resample and start, vmapped over both (`alpha`
+    traced: one compilation serves every objective weight)."""
     solver = optx.BFGS(rtol=rtol, atol=atol)
 
     def fn(z, args):
-        data, r = args
-        return design_loss(data, space, alpha, unit_from_angle(z), r)
+        data, r, a = args
+        return design_loss(data, space, a, unit_from_angle(z), r)
 
-    def one(z0, r, data):
-        sol = optx.minimise(
-            fn, solver, z0, args=(data, r), max_steps=max_steps, throw=False
-        )
+    def one(z0, r, data, a):
+        args = (data, r, a)
+        sol = optx.minimise(fn, solver, z0, args=args, max_steps=max_steps, throw=False)
         return (
             sol.value,
-            fn(sol.value, (data, r)),
+            fn(sol.value, args),
             sol.result._value,
             sol.stats["num_steps"],
         )
 
-    per_start = jax.vmap(one, in_axes=(0, None, None))
-    per_resample = jax.vmap(per_start, in_axes=(0, 0, None))
+    per_start = jax.vmap(one, in_axes=(0, None, None, None))
+    per_resample = jax.vmap(per_start, in_axes=(0, 0, None, None))
 
-    def run(z0, data):
-        return per_resample(z0, jnp.arange(z0.shape[0]), data)
+    def run(z0, data, alpha):
+        return per_resample(z0, jnp.arange(z0.shape[0]), data, alpha)
 
     return jax.jit(run)
 
@@ -569,8 +572,8 @@ def batched_search(
         seed=seed,
     )
     z0 = jnp.asarray(angle_from_unit(U0), data.toa.dtype)
-    run = _local_fits(space, float(alpha), int(max_steps), float(rtol), float(atol))
-    z, f, code, steps = run(z0, data)
+    run = _local_fits(space, int(max_steps), float(rtol), float(atol))
+    z, f, code, steps = run(z0, data, jnp.asarray(alpha, data.toa.dtype))
     U = np.asarray(unit_from_angle(z), float)
     f = np.asarray(f, float)
     worse = ~np.isfinite(f) | (f > F0)
