@@ -233,6 +233,9 @@ def compare_band_count(ctx, res, task, alpha: float) -> dict:
         ),
         "wall_s": {"adam": t_old, "nlopt+bfgs": t_new},
         "compile_s": t_compile,
+        "wall_s_note": "one call each, compiled beforehand (compile_s), on a "
+        "shared 2-core machine (1-min load averages in load_average)",
+        "load_average": load,
         "time_ratio_new_over_old": t_new / t_old,
         "evaluations": {
             "adam": old["n_evals"],
