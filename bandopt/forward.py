@@ -426,7 +426,8 @@ def band_measurement(
     b = clean.shape[-1]
     n = int(np.prod(clean.shape[:-1]))
     if noise is True:
-        z = noise_draws(key, n, b, electrons.dtype)
+        # the default float dtype, then cast: float32 draws are other numbers
+        z = noise_draws(key, n, b).astype(electrons.dtype)
     else:
         z = jnp.asarray(noise, electrons.dtype)
         if z.shape != (n, b):

@@ -311,3 +311,23 @@ def test_scenario_table_keeps_its_scenario_set(scen):
         t.scenarios.with_lamps(t.lamp_ids, np.asarray(scen.factors.lamp))
     )
     np.testing.assert_array_equal(again.toa, t.toa)
+
+
+def test_noisy_band_radiance_sees_the_same_draws_in_float32():
+    """float32 spectra get the float64 draws cast (`jax.random.normal` gives
+    other numbers in float32), so a float32 run measures the same noise."""
+    import jax.numpy as jnp
+
+    from bandopt.forward import band_radiance
+    from bandopt.sensor import BandSet
+
+    wl = np.arange(380.0, 901.0)
+    spectra = np.stack([np.ones_like(wl), 1 + wl / 900.0]) * 1e-4
+    bands = BandSet.from_physical([450.0, 600.0, 800.0], [40.0, 40.0, 60.0])
+    a = np.asarray(band_radiance(jnp.asarray(spectra), bands, wavelength_nm=wl,
+                                 noise=True, key=3))
+    b = np.asarray(band_radiance(jnp.asarray(spectra, jnp.float32), bands,
+                                 wavelength_nm=wl, noise=True, key=3), float)
+    clean = np.asarray(band_radiance(jnp.asarray(spectra), bands, wavelength_nm=wl))
+    assert np.max(np.abs(a - clean) / clean) > 1e-3  # the noise is visible
+    np.testing.assert_allclose(b, a, rtol=1e-4)  # float32 rounding only

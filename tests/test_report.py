@@ -327,3 +327,33 @@ def test_calibrated_tolerances_are_shown_and_checked(small, tmp_path):
     (small / "recommendation.json").write_text(json.dumps(rec))
     msgs = consistency_messages(small)
     assert any("centre_tolerance_calibrated_nm" in m for m in msgs)
+
+
+def test_search_solvers_and_converged_designs_are_shown(small, tmp_path):
+    """The page names the solvers behind the recommendation and how many
+    designs converged (per band count and for the recommended set), each
+    number linked to its file; results without them say MISSING."""
+    res = build_report(small, tmp_path / "old", strict=False)
+    assert "spectral/search" in res.path.read_text()  # older results: MISSING
+    rec = json.loads((small / "recommendation.json").read_text())
+    rec["spectral"]["search"] = {
+        "global": "nlopt GN_CRS2_LM per resample",
+        "local": "optimistix BFGS, rtol 1e-06",
+        "designs_converged": 11,
+        "designs": 12,
+    }
+    (small / "recommendation.json").write_text(json.dumps(rec))
+    comp = json.loads((small / "search" / "compare.json").read_text())
+    for k, d in comp["designs"].items():
+        d["convergence"] = {"fits": {"successful": 90}, "designs_converged": 9,
+                            "designs": 12}
+    (small / "search" / "compare.json").write_text(json.dumps(comp))
+    res = build_report(small, tmp_path / "out", strict=False)
+    text = res.path.read_text()
+    assert "nlopt GN_CRS2_LM per resample" in text and "optimistix BFGS" in text
+    page = _Page()
+    page.feed(text)
+    got = {(a["data-src"], a["data-ptr"]): a["data-value"] for a in page.nums}
+    assert got[("recommendation.json", "/spectral/search/designs_converged")] == "11"
+    assert got[("search/compare.json",
+                "/designs/n5+pan a=0/convergence/designs_converged")] == "9"

@@ -178,6 +178,18 @@ def recommended_sensor(ctx: Ctx) -> str:
         + ". Intervals in brackets: " + esc(spectral.get("intervals", ""))
         + "; tolerances: " + esc(spectral.get("tolerances", "")) + ".</p>"
     )
+    search = spectral.get("search")
+    if search is None:
+        parts.append(missing_box(
+            "the search solvers and their convergence (key 'spectral/search')",
+            "run <code>make run</code>"))
+    else:
+        parts.append(
+            "<p>Search: " + esc(search["global"]) + "; " + esc(search["local"])
+            + ". Designs of the recommended set whose local fit converged: "
+            + src.num(R, "/spectral/search/designs_converged") + " of "
+            + src.num(R, "/spectral/search/designs") + ".</p>"
+        )
     rad = rec.get("radiometry")
     lim_rows = {}
     if rad is not None and src.exists("radiometry/limits.csv"):
@@ -347,6 +359,16 @@ def comparison(ctx: Ctx) -> str:
     return "".join(out)
 
 
+def _converged_cell(src: Sources, rel: str, ptr: str) -> str:
+    """`k / R` designs (best fit per resample) whose local fit converged, or
+    MISSING for results written before fits recorded their outcome."""
+    conv = src.get(rel, ptr).get("convergence")
+    if conv is None:
+        return "<strong>MISSING</strong> (re-run <code>make run</code>)"
+    return (src.num(rel, ptr + "/convergence/designs_converged") + " / "
+            + src.num(rel, ptr + "/convergence/designs"))
+
+
 def band_count(ctx: Ctx) -> str:
     src = ctx.src
     box = ctx.need("search")
@@ -375,6 +397,7 @@ def band_count(ctx: Ctx) -> str:
                 for m in METRICS
             ],
             src.num(C, pointer("designs", d, "f1_mean"), digits=2),
+            _converged_cell(src, C, pointer("designs", d)),
         ])
     fig, axes = plt.subplots(1, 4, figsize=(14, 3.2))
     series = [("normalised MAE", None)] + [(f"{m} MAE", m) for m in METRICS]
@@ -405,7 +428,9 @@ def band_count(ctx: Ctx) -> str:
         f"{src.num(C, '/band_count/chosen_n')} (best n = "
         f"{src.num(C, '/band_count/best_n')}).</p>"
         + table(["bands", "normalised MAE", "LER MAE [lm/W]", "G MAE", "CCT MAE [K]",
-                 "level-2 F1"], rows, caption="Error vs band count")
+                 "level-2 F1", "designs converged"], rows,
+                caption="Error vs band count (designs converged: resamples whose "
+                "best local fit met optimistix's tolerances)")
         + img
     )
 

@@ -8,8 +8,10 @@
 - `make_task`, `run_task`, `get_context`, `evaluate_bands` (`_task`): one search;
 - `run_sweep` (`_sweep`): parallel (spawned processes or Dask), resumable sweeps;
 - `lamp_resamples`, `make_batch_data`, `batched_search` (`_stability`): all lamp
-  resamples and restarts of one band count in one jitted, vmapped Adam search,
-  with the joint estimation/classification loss and the band-overlap penalty;
+  resamples of one band count: nlopt explores each, optimistix BFGS fits from
+  its best distinct points (all resamples and starts in one jitted, vmapped
+  function, each fit's result recorded), with the joint
+  estimation/classification loss and the band-overlap penalty;
 - `make_study_task`, `run_study_task`, `SCORERS` (`_study`): stability-study
   tasks and the pluggable outer-fold estimator (a `FittedScorer`, whose
   `hyper` a refit can keep); `_analysis`: the stated rules

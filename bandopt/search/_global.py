@@ -37,13 +37,23 @@ class NloptObjective:
     """Adapt JAX `value(u)` / `value_and_grad(u)` to nlopt's `f(x, grad)`.
 
     nlopt passes float64 NumPy arrays and expects `grad` filled in place (size 0
-    for derivative-free algorithms). Counts evaluations, keeps the best point
-    and a short history; `max_evals` stops the run (`nlopt.ForcedStop`) once
-    reached, so local searches inside MLSL cannot overrun the budget.
+    for derivative-free algorithms, which need no `value_and_grad`). Counts
+    evaluations, keeps the best point and a short history; `max_evals` stops
+    the run (`nlopt.ForcedStop`) once reached, so local searches inside MLSL
+    cannot overrun the budget.
+    `keep_points`: also keep every evaluated point and its value in `points`
+    (a list of `(x (d,), f)`), e.g. to draw starting points from a global run.
     Requires `jax_enable_x64` (nlopt's float64 points would be rounded).
     """
 
-    def __init__(self, value: Callable, value_and_grad: Callable, max_evals: int):
+    def __init__(
+        self,
+        value: Callable,
+        value_and_grad: Callable | None,
+        max_evals: int,
+        *,
+        keep_points: bool = False,
+    ):
         if not jax.config.jax_enable_x64:  # pyright: ignore
             raise RuntimeError("The nlopt adapter needs jax_enable_x64=True.")
         self.value, self.value_and_grad, self.max_evals = (
@@ -60,6 +70,7 @@ class NloptObjective:
         ] = []  # (evaluation, best loss) at improvements
         self.trace_s: list[float] = []  # seconds since the first call, same points
         self._t0: float | None = None
+        self.points: list[tuple[np.ndarray, float]] | None = [] if keep_points else None
 
     def __call__(self, x: np.ndarray, grad: np.ndarray) -> float:
         if self.n_evals >= self.max_evals:
@@ -77,6 +88,8 @@ class NloptObjective:
         f = float(f)
         if not np.isfinite(f):
             f = 1e30  # nlopt cannot handle NaN: a huge value, never a best point
+        if self.points is not None:
+            self.points.append((np.array(x, float), f))
         if f < self.best_f:
             self.best_f, self.best_x = f, np.array(x, float)
             self.trace.append((self.n_evals, f))

@@ -25,6 +25,8 @@ from ..sensor import SensorParams, noise_electrons, signal_electrons
 from ..sensor.reference import reference_sensor
 from ._problem import Space
 from ._stability import (
+    LOCAL_ATOL,
+    LOCAL_RTOL,
     batched_search,
     design_terms,
     lamp_resamples,
@@ -188,7 +190,7 @@ def study_resamples(preset, noise, atmospheres, partitions, seed):
 
 STUDY_TASK = {
     "kind": "stability",
-    "version": 3,  # bump when a task's result changes for the same fields
+    "version": 4,  # bump when a task's result changes for the same fields
     "preset": "search",
     "noise": "P4",
     "atmospheres": "auto",
@@ -197,9 +199,11 @@ STUDY_TASK = {
     "n_bands": 3,
     "pan": "fixed",
     "alpha": 0.0,
-    "restarts": 12,
-    "steps": 200,
-    "lr": 0.08,
+    "restarts": 8,
+    "explore_evals_per_dim": 40,
+    "max_steps": 200,
+    "rtol": LOCAL_RTOL,
+    "atol": LOCAL_ATOL,
     "min_fwhm_nm": 20.0,
     "max_fwhm_nm": 200.0,
     "scorer": DEFAULT_SCORER,
@@ -262,14 +266,16 @@ def run_study_task(task: dict) -> dict:
         space,
         alpha=task["alpha"],
         restarts=task["restarts"],
-        steps=task["steps"],
-        lr=task["lr"],
+        explore_evals_per_dim=task["explore_evals_per_dim"],
+        max_steps=task["max_steps"],
+        rtol=task["rtol"],
+        atol=task["atol"],
         seed=task["seed"],
     )
     search_s = time.perf_counter() - t1
 
     designs, scores, snrs, terms, overlaps = [], [], [], [], []
-    for i, u in enumerate(s["u"]):
+    for i, u in enumerate(s.u):
         c, f = sorted_design(space, u)
         bands = space.band_set(c, f, name=f"stability-n{space.n_bands}-r{i}")
         designs.append({"centre_nm": c.tolist(), "fwhm_nm": f.tolist()})
@@ -287,19 +293,22 @@ def run_study_task(task: dict) -> dict:
         "task": task,
         "space": space.to_dict(),
         "designs": designs,
-        "inner_loss": s["loss"].tolist(),
+        "inner_loss": s.loss.tolist(),
         "inner_terms": terms,
-        "restart_losses": s["restart_losses"].tolist(),
-        "optimiser": f"Adam, {task['steps']} fixed steps (no convergence "
-        "criterion), lr on the logit of the unit box, best point of each restart",
-        "trace_every_20_steps": s["trace"][::20].T.tolist(),
-        "saturated": ((s["u"] < 1e-3) | (s["u"] > 1 - 1e-3)).tolist(),
+        "restart_losses": s.restart_losses.tolist(),
+        "optimiser": s.settings,
+        "fit_results": s.result_counts(),
+        "design_converged": s.converged.tolist(),
+        "restart_results": s.result.tolist(),
+        "local_steps": s.steps.tolist(),
+        "saturated": ((s.u < 1e-3) | (s.u > 1 - 1e-3)).tolist(),
         "max_overlap": overlaps,
         "snr": snrs,
         "scores": scores,
-        "n_evals": s["n_evals"],
+        "n_evals": s.n_evals,
+        "n_evals_computed": s.n_evals_computed,
         "search_s": search_s,
-        "evals_per_s": s["n_evals"] / search_s,
+        "evals_per_s": s.n_evals / search_s,
         "context": ctx.config,
         "wall_s": time.perf_counter() - t0,
     }
