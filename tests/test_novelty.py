@@ -3,8 +3,6 @@ pixels of known types are flagged at about its nominal rate, a spectrum
 unlike every lamp (a narrow line) is flagged, and `bandopt evaluate` gives
 no type for a flagged pixel."""
 
-import json
-
 import numpy as np
 import pytest
 

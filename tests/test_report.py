@@ -344,7 +344,7 @@ def test_search_solvers_and_converged_designs_are_shown(small, tmp_path):
     }
     (small / "recommendation.json").write_text(json.dumps(rec))
     comp = json.loads((small / "search" / "compare.json").read_text())
-    for k, d in comp["designs"].items():
+    for d in comp["designs"].values():
         d["convergence"] = {"fits": {"successful": 90}, "designs_converged": 9,
                             "designs": 12}
     (small / "search" / "compare.json").write_text(json.dumps(comp))
