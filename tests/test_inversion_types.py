@@ -1,7 +1,8 @@
 """The inversion's type probabilities: calibrated by temperature on held-out
 lamps of known types (held-out types reported and left to the flag;
 `fit_inversion(calibrate_probabilities=True)`), the top two named when the
-call is close, and NIR variants that share their lamp's prior mass (`lamp_prior`, `nir_variants`)."""
+call is close, and NIR variants that share their lamp's prior mass
+(`lamp_prior`, `nir_variants`)."""
 
 import dataclasses
 
