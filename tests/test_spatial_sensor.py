@@ -137,7 +137,8 @@ def test_match_counts():
     assert s.precision == 0.5 and s.recall == pytest.approx(2 / 3)
     assert s.f1 == pytest.approx(2 * 0.5 * (2 / 3) / (0.5 + 2 / 3))
     assert match(np.zeros((0, 2)), t, 5.0).f1 == 0.0
-    assert match_radius_m(2.0) == 5.0 and match_radius_m(20.0) == 20.0
+    assert match_radius_m(2.0) == pytest.approx(5.0 + 2.0 / np.sqrt(2))
+    assert match_radius_m(20.0) == pytest.approx(5.0 + 20.0 / np.sqrt(2))
 
 
 def test_overlapping_lamp_types_are_identified():
@@ -179,6 +180,25 @@ def test_isotropic_uplight_lamp_found_at_fine_gsd():
     for gsd in (2.0, 10.0):
         obs = observe(scene, _bands(), gsd, seed=1)
         assert obs.score.tp == 1 and obs.score.fp == 0
+
+
+def test_road_optic_row_is_found_at_every_gsd_down_to_its_spacing():
+    """A single-sided row of road-optic lamps is seen through its light pools,
+    whose brightest part lies on the sidewalk beside the pole. Every lamp is
+    found at 2.5, 5 and 10 m (at 5 m the old radius, max(GSD, 5 m), missed all
+    of them); at 5 m and finer the far sidewalk's pool adds about one false
+    detection per lamp, and no more."""
+    from bandopt.spatial import arrangement, true_targets
+
+    lay = arrangement("single-sided", spacing_m=30.0, mounting_height_m=10.0,
+                      length_m=200.0, width_m=80.0,
+                      lamps=("nist_traditional_hps",))
+    scene = render(lay, _bands(), dx_m=0.5)
+    n = len(true_targets(scene))
+    for gsd in (2.5, 5.0, 10.0):
+        s = observe(scene, _bands(), gsd, seed=2).score
+        assert s.tp == n, (gsd, s)
+        assert s.fp <= n, (gsd, s)
 
 
 def test_cli_render_writes_outputs(tmp_path):

@@ -14,7 +14,15 @@ every GSD, arrangement and layout: nothing is tuned on the results.
 
 Matching: detections and true lamp positions are paired one-to-one by the
 Hungarian algorithm on distance, pairs farther apart than
-`match_radius_m = max(GSD, MIN_MATCH_RADIUS_M)` do not count. Precision =
+`match_radius_m = MIN_MATCH_RADIUS_M + GSD / √2` do not count: a lamp is seen
+through its light pool, whose brightest part (the kerb or sidewalk beside the
+pole) lies up to `MIN_MATCH_RADIUS_M` from the pole, and a detection can only be
+placed at a pixel centre, up to half a pixel diagonal from where the pool peaks.
+(Until 2026-11 the radius was `max(GSD, 5 m)`, which at a 5 m GSD was shorter
+than pool offset plus pixel quantisation: every lamp of the shipped layouts was
+missed and counted as two false detections.) At GSDs of 5 m and finer the pool on
+the far side of the road is resolved as a second peak and counts as a false
+detection: precision there is about 0.5 for single-sided rows. Precision =
 TP / detections, recall = TP / lamps, F1 their harmonic mean (0 when
 undefined). Lamps at the same position (a central twin) are one target.
 """
@@ -142,6 +150,7 @@ def match(detected_xy: np.ndarray, true_xy: np.ndarray, radius_m: float) -> Scor
 
 
 def match_radius_m(gsd_m: float) -> float:
-    """`max(GSD, MIN_MATCH_RADIUS_M)`. [m]"""
-    return max(float(gsd_m), MIN_MATCH_RADIUS_M)
+    """`MIN_MATCH_RADIUS_M + GSD / √2`: the pool offset plus half a pixel
+    diagonal. [m]"""
+    return MIN_MATCH_RADIUS_M + float(gsd_m) / np.sqrt(2.0)
 
