@@ -225,7 +225,8 @@ def main(cfg: Config, out: Path) -> dict:
             "PSF Gaussian with FWHM = 1 GSD, box pixel, photon noise (Table 2.3 "
             "sensor, integration time from GSD at 600 km), 14-bit, saturation 1e-3",
             "DoG thresholds fixed in advance, identical for every GSD and scene",
-            "match radius 5 m + GSD/√2 (pool offset plus half a pixel diagonal); twin poles are one target",
+            "match radius 5 m + GSD/√2 (pool offset plus half a pixel "
+            "diagonal); twin poles are one target",
         ],
         "overlapping_lamp_types": "see overlap.json / overlap.png "
         "(python -m experiments.spatial_overlap, run by `make spatial`)",
@@ -510,7 +511,8 @@ def _markdown(out, summary, table, cfg):
         "1-5 m the light pool of a road optic is resolved into its lobes along "
         "the road and into the bright sidewalk strips across it, so the DoG "
         "finds several blobs per lamp: the one on the sidewalk beside the pole "
-        "is the lamp, the others are false detections (precision about 0.5). Near 10 m one pool becomes one blob centred "
+        "is the lamp, the others are false detections (precision about 0.5). "
+        "Near 10 m one pool becomes one blob centred "
         "on its lamp. Once the GSD approaches half the spacing between "
         "neighbouring lamps (the 15 m of a staggered layout, 20 m rows with "
         "high poles), neighbouring pools merge into a continuous band and "
