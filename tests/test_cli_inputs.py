@@ -351,6 +351,18 @@ def test_the_last_calendar_night_is_computed(capsys):
     assert len(json.loads(capsys.readouterr().out)) == 2
 
 
+def test_east_longitude_beyond_180_is_the_same_place(capsys):
+    """item 5: `--lon 200` is accepted as 0-360 east, the convention of many
+    ephemerides, and is the same place as `--lon -160` (the help says so);
+    400 is refused (above)."""
+    argv = ["moon", "--date", "2019-07-16", "--lat", "48", "--nights", "2", "--json"]
+    assert main([*argv, "--lon", "200"]) == 0
+    east = json.loads(capsys.readouterr().out)
+    assert main([*argv, "--lon", "-160"]) == 0
+    west = json.loads(capsys.readouterr().out)
+    assert east == west
+
+
 # item 11: one reader for every spectral file
 
 
