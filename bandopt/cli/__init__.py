@@ -161,7 +161,11 @@ def _user_words(message: str, field_options: dict[str, str]) -> str:
     import re
 
     for field, option in field_options.items():
-        message = re.sub(rf"`{field}`|\b{field}\b", option, message)
+        # backticked always; bare only for identifier-like names (`gsd_m`), so
+        # an English word ("after 30 nights") or an option already written
+        # (`--nights`) stays as it is
+        bare = rf"|(?<![-\w]){field}\b" if "_" in field else ""
+        message = re.sub(rf"`{field}`{bare}", option, message)
     return message
 
 
