@@ -367,15 +367,32 @@ def scene_spectra(ctx, spectra) -> np.ndarray:
 
 
 def without_class(inv: "inv_mod.Inversion", level2: str) -> "inv_mod.Inversion":
-    """`inv` with every prior entry of level-2 class `level2` given prior
-    weight 0 (log prior -inf): its measured lamps, their blends and shifted
-    copies. The band-error model, intervals and threshold are the fit's."""
+    """`inv` without every prior entry of level-2 class `level2`: its
+    measured lamps, their blends and shifted copies (`Inversion.restricted`;
+    removed, not given zero weight, which would leave the misfit and so the
+    `unexplained` flag as if the class were known: the rule until
+    2026-11-27). The band-error model and intervals are the fit's; the
+    `unexplained` test's inner folds lose the class too (their priors drop
+    it, their held-out rows of it are dropped), as a fit without it would."""
     prior = inv.prior
     drop = np.asarray(prior.level2, dtype=object) == level2
     if drop.all():
         raise ValueError(f"level2 {level2!r}: the prior would be empty.")
-    lp = np.where(drop, -np.inf, prior.log_prior)
-    return dataclasses.replace(inv, prior=dataclasses.replace(prior, log_prior=lp))
+    folds = []
+    for f in inv.flag_folds:
+        keep = np.asarray(f.classes, dtype=object) != level2
+        if not keep.any() or np.all(np.asarray(f.model.prior.level2) == level2):
+            continue
+        folds.append(
+            dataclasses.replace(
+                f,
+                model=without_class(f.model, level2),
+                scores=f.scores[keep],
+                weights=f.weights[keep],
+                classes=tuple(np.asarray(f.classes, dtype=object)[keep]),
+            )
+        )
+    return dataclasses.replace(inv.restricted(~drop), flag_folds=tuple(folds))
 
 
 CONFIDENCE_DECIMALS = 4

@@ -2,6 +2,7 @@
 (`bandopt.classify.evaluate_inversion`, `bandopt classify --estimator`): the
 KNN's folds and scores, hierarchical types, the reject option."""
 
+import dataclasses
 import itertools
 import json
 
@@ -129,6 +130,46 @@ def test_reject_is_unexplained_or_below_threshold(result):
         )
         cov = [c["coverage"] for c in rej["curve"]]
         assert all(b <= a for a, b in itertools.pairwise(cov))
+
+
+def test_known_type_p_value_ranks_held_out_lamps_like_a_conformal_test(table, bands):
+    """The flag's p-value (`Inversion.known_type_p_value`): each inner fold's
+    held-out rows, ranked by their own fold, fall below α at most at rate α
+    (class-balanced), as a conformal test must; without the inner folds the
+    p-value is NaN and the threshold rule decides; `restricted` to every entry
+    changes nothing."""
+    from bandopt.classify._inversion import _surface_basis
+
+    s = outer_splits(table, 0)[0]
+    lamps, always = table_lamps(table)
+    rad = table.band_radiance(bands, noise=True)
+    w = inv_mod.band_weights_on(bands, table.wavelength_nm)
+    inv = inv_mod.fit_inversion(
+        rad, table.lamp, lamps, s.train, s.inner, w, inversion_conditions(table),
+        basis=_surface_basis(table.wavelength_nm), always=always,
+    )  # fmt: skip
+    assert len(inv.flag_folds) == len(s.inner) and inv.flag_level == pytest.approx(
+        1 - inv_mod.UNEXPLAINED_QUANTILE
+    )
+    for fold, (_, va) in zip(inv.flag_folds, s.inner, strict=True):
+        rows = np.flatnonzero(np.isin(table.lamp, va))
+        one = dataclasses.replace(inv, flag_folds=(fold,))
+        p = one.known_type_p_value(rad[rows])
+        assert np.all((p > 0) & (p <= 1))
+        assert np.sum(fold.weights * (p < one.flag_level)) <= (
+            one.flag_level * fold.weights.sum() + 1e-12
+        )
+        # the fold's scores are its held-out rows' misfits under its own prior
+        _, mis = fold.model.posterior(
+            rad[rows], None, [inv.flag_noise[0]], floors=[inv.flag_noise[1]]
+        )
+        np.testing.assert_allclose(mis[:, 0], fold.scores, rtol=1e-9)
+    bare = dataclasses.replace(inv, flag_folds=())
+    assert np.all(np.isnan(bare.known_type_p_value(rad[:3])))
+    same = inv.restricted(np.ones(len(inv.prior.ids), bool))
+    a, b = inv.predict(rad[:20]), same.predict(rad[:20])
+    np.testing.assert_allclose(a.estimate, b.estimate, rtol=1e-12, equal_nan=True)
+    np.testing.assert_array_equal(a.unexplained, b.unexplained)
 
 
 def test_types_follow_the_inversion_and_unexplained_pixels_are_rejected(table, bands):

@@ -427,9 +427,9 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             assert "offset (x the metric's spread over the library lamps: LER " \
                 "1, G 3, CCT 10)" in desc
         else:
-            assert desc.endswith(
+            assert (
                 "in units of the posterior's half-width; type probabilities: the "
-                "posterior's, uncalibrated"
+                "posterior's, uncalibrated; unexplained: " in desc
             )
         assert seen["sigma_rule"] == {"joint": "error"}.get(sigma, sigma)
         want = inv_mod.FLOOR_GRID if sigma == "per-metric" else (inv_mod.SIGMA_FLOOR,)

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from bandopt import robustness as rb
+from bandopt import inversion as inv_mod, robustness as rb
 from bandopt.calibration import expected_calibration_error
 from bandopt.evaluator import InversionConfig, fit_on_context
 from bandopt.folds import class_balanced_weights
@@ -151,10 +151,20 @@ def test_masking_a_class_removes_it_from_the_answer():
         part.ctx, bands, LIGHT, train_lamps=part.train.tolist(), inner=list(part.inner)
     )
     masked = rb.without_class(inv, "hps")
-    res = masked.predict(part.ctx.radiance(bands)[:50])
-    j = list(res.level2_labels).index("hps")
-    assert np.all(res.level2_probabilities[:, j] == 0.0)
-    assert "hps" not in res.level2
+    rad = part.ctx.radiance(bands)
+    res = masked.predict(rad[:50])
+    assert "hps" not in res.level2_labels and "hps" not in res.level2
+    # the class is gone from the misfit too (zero prior weight left it there):
+    # HPS pixels are explained worse without HPS lamps, others no better
+    lamps, _, _, _ = inv_mod.context_setup(part.ctx)
+    l2 = np.asarray(lamps.level2, dtype=object)[part.ctx.table.lamp_of]
+    hps = np.flatnonzero(l2 == "hps")[:64]
+    before = inv.posterior(rad[hps])[1]
+    after = masked.posterior(rad[hps])[1]
+    assert np.all(after >= before - 1e-9) and np.mean(after > before * 1.01) > 0.5
+    # so are the flag's inner folds: no HPS entry, no held-out HPS row
+    for fold in masked.flag_folds:
+        assert "hps" not in fold.model.prior.level2 and "hps" not in fold.classes
 
 
 def test_study_options_are_checked():

@@ -496,6 +496,7 @@ def _fit(args, ctx, bands, mode):
             )
             + f", in units of {_unit_text(inv)}"
             + _probability_text(inv)
+            + _flag_text(inv)
         )
         return inv, basis, desc
     fit = fit_estimator if args.estimator == "ridge" else fit_kernel_estimator
@@ -588,6 +589,17 @@ def prior_lamp_names(paths) -> list[str]:
     return [
         str(p) if names.count(n) > 1 else n for p, n in zip(paths, names, strict=True)
     ]
+
+
+def _flag_text(inv) -> str:
+    """How `unexplained` is decided, for the description."""
+    if not getattr(inv, "flag_folds", ()):
+        return "; unexplained: misfit above the inner folds' threshold"
+    return (
+        f"; unexplained: p < {inv.flag_level:g} (known_type_p_value, a "
+        "cross-conformal test: the pixel's misfit under each inner fold's prior "
+        "ranked among that fold's held-out lamps of the type it is called)"
+    )
 
 
 def _probability_text(inv) -> str:

@@ -63,10 +63,11 @@ noise. The discrete posterior is exact for its prior, fast and physical.
 **Intervals and reject.** The 90 % interval is the posterior's 5-95 %
 range widened by a split-conformal factor (`Romano2019`) calibrated on the
 inner folds' held-out lamps (class-balanced), then clipped to the physical
-range. A pixel whose best reduced χ² at the sharp band error `FLAG_NOISE`
-exceeds the 95th percentile of the inner folds' held-out lamps (a conformal
-test at a 5 % false-flag rate on lamps of known types) is flagged
-`unexplained` (and its type is not guessed).
+range. A pixel whose best reduced χ² at the sharp band error `FLAG_NOISE`,
+under each inner fold's prior, ranks above the 95th percentile of that
+fold's held-out lamps of the type it is called (a cross-conformal,
+class-conditional test at 5 %, `Inversion.known_type_p_value`, `Vovk2015`)
+is flagged `unexplained` (and its type is not guessed).
 
 **Type probabilities and modelled near-infrared.** Optionally
 (`calibrate_probabilities`) the level-1/-2 probabilities are tempered with a
@@ -183,6 +184,7 @@ from ._metrics import (
 )
 from ._model import (
     CLOSE_CALL_RATIO as CLOSE_CALL_RATIO,
+    FlagFold as FlagFold,
     Inversion as Inversion,
     InversionResult as InversionResult,
     _result as _result,

@@ -14,13 +14,16 @@ from ._prior import LampPrior
 
 
 UNEXPLAINED_QUANTILE = 0.95
-"""Known-lamp quantile of the reduced χ² (at `FLAG_NOISE`) above which a pixel
-is unexplained: a split-conformal novelty test (`Vovk2005`) whose false-flag
-rate on held-out lamps of known types is 1 - 0.95. The inner folds' priors
-lack a fold's lamps, so their misfits run higher than the final prior's and
-the rate on new lamps of known types is at most that. The usual 5 % level of
-a test; not chosen on any score. At 0.99 the flag never fired on types left
-out of the prior (robustness suite, cc13a9a)."""
+"""A pixel is unexplained when its cross-conformal p-value
+(`Inversion.known_type_p_value`, `Vovk2015`, class-conditional) is below
+1 - 0.95: its misfit at `FLAG_NOISE` under each inner fold's prior ranks
+above the 95th percentile of that fold's held-out lamps of the type it is
+called. The usual 5 % level of a test; not chosen on any score. Until
+2026-11-27 the test compared the final prior's misfit with a threshold set on
+the inner folds' misfits (the pooled 95th percentile, still
+`Inversion.threshold`): the final prior holds more lamps, explains every
+pixel better and so flagged far fewer than 5 % of new lamps of known types
+and few of types it lacks."""
 
 
 FLAG_NOISE = (0.003, 1e-3)

@@ -27,7 +27,7 @@ from ._metrics import (
     _to_model,
     weighted_quantile,
 )
-from ._model import Inversion, build_inversion
+from ._model import FlagFold, Inversion, build_inversion
 from ._scoring import SIGMA_FLOOR, SIGMA_REL_GRID
 from ._surfaces import SurfaceBasis, surface_basis
 from ._variants import (
@@ -279,6 +279,7 @@ def fit_inversion(
     scored_n = grid_n + ([] if FLAG_NOISE in grid_n else [FLAG_NOISE])
     flag_col = scored_n.index(FLAG_NOISE)
     flag_known = []  # (rows, va, misfit at FLAG_NOISE) per inner fold
+    flag_folds = []  # the same with each fold's inversion, for new pixels
     for tr, va in inner:
         rows = rows_of(va)
         inv = make(lamps.take(tr), grid_n[0], modelled(tr)[0])
@@ -291,6 +292,14 @@ def fit_inversion(
             floors=[x[1] for x in scored_n],
         )
         flag_known.append((rows, va, misfits[:, flag_col]))
+        flag_folds.append(
+            FlagFold(
+                inv,
+                misfits[:, flag_col],
+                _row_weights(rows, va, row_lamp, l2),
+                tuple(l2[row_lamp[rows]]),
+            )
+        )
         w = class_balanced_weights(l2[va])
         rl = row_lamp[rows]
         for j, s in enumerate(grid_n):
@@ -395,6 +404,8 @@ def fit_inversion(
         level2_temperature=float(temps[1][0]),
         temperature_slope=(float(temps[0][1]), float(temps[1][1])),
         flag_noise=FLAG_NOISE,
+        flag_folds=tuple(flag_folds) if dof >= 1 else (),
+        flag_level=1.0 - UNEXPLAINED_QUANTILE,
         diagnostics={
             "probabilities": prob_diag,
             "nir_error": {
