@@ -450,6 +450,7 @@ def lamp_records(res, part: Partition, pl: PerturbedLamps, lamps, q: int) -> lis
                 round(float(c), CONFIDENCE_DECIMALS) for c in p1[sel].max(axis=1)
             ],
             "level1_top_right": [int(x == lamps.level1[i]) for x in top[sel]],
+            "level1_flagged": [int(u) for u in res.unexplained[sel]],
         }
         rec.update(inv_mod.record_errors(est, t, v))
         rec.update(_coverage(res.interval90[sel], t, v))
@@ -637,7 +638,7 @@ WIDTH_COLUMNS = tuple(f"{m}_width_median" for m in METRICS)
 """Median 90 % interval width per metric: per partition the class-balanced
 weighted median over lamps of each lamp's median width. [lm/W], [1], [K]"""
 
-PAIRED = (*COLUMNS, *WIDTH_COLUMNS, "ECE", "level1_answered")
+PAIRED = (*COLUMNS, *WIDTH_COLUMNS, "ECE", "ECE_answered", "level1_answered")
 """Columns whose perturbed-minus-clean difference is paired by partition."""
 
 
@@ -645,16 +646,26 @@ def _weights(recs) -> np.ndarray:
     return class_balanced_weights(np.asarray([r["level2"] for r in recs], object))
 
 
-def partition_ece(recs) -> float:
+def partition_ece(recs, answered: bool = False) -> float | None:
     """ECE of the level-1 probabilities (top-class confidence) over every
     pixel of `recs`, each pixel weighted by its lamp's class-balanced weight
-    over its rows (`calibration.expected_calibration_error`)."""
+    over its rows (`calibration.expected_calibration_error`). `answered`:
+    only the pixels not flagged `unexplained` (a flagged pixel is given no
+    type, so its probabilities are no answer); None when none is (or the
+    records predate the per-pixel flags)."""
     w = _weights(recs)
     conf = np.concatenate([r["level1_confidence"] for r in recs])
     right = np.concatenate([r["level1_top_right"] for r in recs]).astype(bool)
     pix = np.concatenate(
         [np.full(r["rows"], wi / r["rows"]) for r, wi in zip(recs, w, strict=True)]
     )
+    if answered:
+        if any("level1_flagged" not in r for r in recs):
+            return None
+        keep = ~np.concatenate([r["level1_flagged"] for r in recs]).astype(bool)
+        if not keep.any():
+            return None
+        conf, right, pix = conf[keep], right[keep], pix[keep]
     return expected_calibration_error(conf, right, pix)
 
 
@@ -749,6 +760,7 @@ def summarise(records: Sequence[dict], study: RobustnessStudy) -> dict:
             by_p = [[r for r in recs if r["partition"] == p] for p in parts]
             extra = {
                 "ECE": [partition_ece(rp) for rp in by_p],
+                "ECE_answered": [partition_ece(rp, answered=True) for rp in by_p],
                 "level1_answered": [partition_answered(rp) for rp in by_p],
             }
             for col in WIDTH_COLUMNS:

@@ -57,16 +57,17 @@ def readme_text(summary: dict, out: Path) -> str:
         "CCT of the spectrum the pixel holds; types: the lamp's own (the majority "
         "lamp of a mixture). Coverage: share of true values in the 90 % "
         "intervals; width: median 90 % interval width; ECE: expected calibration "
-        "error of the level-1 probabilities (10 bins); level-1 answered: right "
+        "error of the level-1 probabilities (10 bins; ECE answered: over the "
+        "pixels not flagged, whose type is given); level-1 answered: right "
         "among the pixels not flagged `unexplained` (a flagged pixel's type is "
         "not given, so level-1 counts it as not right); out of range: estimates "
         "outside the physical range (must be 0). Generated from "
         f"`{out}/summary.json`.",
         "",
         "| band set | row | level-1 | level-1 answered | level-2 | LER [lm/W] | G | "
-        "CCT [K] | coverage LER/G/CCT | width LER/G/CCT | ECE | unexplained | "
-        "out of range |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "CCT [K] | coverage LER/G/CCT | width LER/G/CCT | ECE | ECE answered | "
+        "unexplained | out of range |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in summary["rows"]:
         cov = "/".join(_cell(r, f"{m}_covered", 2, False) for m in ("LER", "G", "CCT"))
@@ -79,7 +80,7 @@ def readme_text(summary: dict, out: Path) -> str:
             f"{_cell(r, 'level1_correct', 2)} | {_cell(r, 'level1_answered', 2)} | "
             f"{_cell(r, 'level2_correct', 2)} | "
             f"{_cell(r, 'LER', 1)} | {_cell(r, 'G', 3)} | {_cell(r, 'CCT', 0)} | "
-            f"{cov} | {wid} | {_cell(r, 'ECE', 3)} | "
+            f"{cov} | {wid} | {_cell(r, 'ECE', 3)} | {_cell(r, 'ECE_answered', 3)} | "
             f"{_cell(r, 'unexplained', 2, False)} | {r['out_of_range']} |"
         )
     lines += [

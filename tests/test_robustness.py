@@ -106,6 +106,17 @@ def test_summary_maths(run):
         conf = np.concatenate([r["level1_confidence"] for r in recs])
         right = np.concatenate([r["level1_top_right"] for r in recs]).astype(bool)
         assert row["ECE"] == pytest.approx(expected_calibration_error(conf, right, pix))
+        flagged = np.concatenate([r["level1_flagged"] for r in recs]).astype(bool)
+        for r in recs:  # the per-pixel flags are the lamp's unexplained rate
+            assert np.mean(r["level1_flagged"]) == pytest.approx(r["unexplained"])
+        if (~flagged).any():  # answered pixels only: the flagged carry no type
+            assert row["ECE_answered"] == pytest.approx(
+                expected_calibration_error(
+                    conf[~flagged], right[~flagged], pix[~flagged]
+                )
+            )
+        else:
+            assert row["ECE_answered"] is None
         ans = [r for r in recs if r["level1_answered_correct"] is not None]
         wa = class_balanced_weights(np.asarray([r["level2"] for r in ans], object))
         v = np.asarray([r["level1_answered_correct"] for r in ans], float)
