@@ -22,9 +22,9 @@ class InversionConfig:
     """Options of the shipped inversion (see `inversion.fit_inversion`).
 
     - `mixtures`: pairwise same-class blends per class in the prior.
-    - `cross_mixtures`: blends of two types per ordered class pair in the
-      prior, named by the majority lamp (`inversion.cross_mixture_lamps`;
-      0, the default, until measured over the lamp partitions).
+    - `cross_mixtures`: lamp pairs per ordered class pair whose blends of
+      two types join the prior, named by the majority lamp
+      (`inversion.cross_mixture_lamps`, `inversion.CROSS_MIX_PAIRS`).
     - `peak_shifts_nm`: wavelength-shifted copies of direct-emission LEDs.
     - `planck`: modelled incandescent spectra (Planck's law) in the prior.
     - `tm30`: the IES TM-30-15 lamps in the prior (train, never score).
@@ -42,7 +42,7 @@ class InversionConfig:
       are reported beside them and left to the `unexplained` flag."""
 
     mixtures: int = inv_mod.MIX_PAIRS
-    cross_mixtures: int = 0
+    cross_mixtures: int = inv_mod.CROSS_MIX_PAIRS
     peak_shifts_nm: tuple[float, ...] = inv_mod.PEAK_SHIFTS_NM
     planck: bool = True
     tm30: bool = False

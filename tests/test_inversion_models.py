@@ -411,7 +411,7 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             estimator="inversion",
             modelled_per_class=n,
             intervals=intervals,
-            mixtures=mix,
+            mixtures=mix, cross_mixtures=mix // 25,
             sigma=sigma,
             interval_unit=unit,
             peak_shifts=shifts,
@@ -443,6 +443,7 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             )
         assert seen["modelled_per_class"] == n
         assert seen["mixtures"] == mix
+        assert seen["cross_mixtures"] == mix // 25  # 0, then 2 pairs per pair
         got = () if seen["always"] is None else seen["always"].ids
         want = inv_mod.planck_lamps(GRID).ids if planck == "on" else ()
         assert got == want + (("own:my.csv",) if n else ())

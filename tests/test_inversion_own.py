@@ -114,7 +114,7 @@ def test_evaluate_puts_your_lamps_into_the_prior(monkeypatch, tmp_path, lib, cap
     own = (["my_hps.csv"], 5.0 * np.interp(fine, GRID, lib.spectra[i])[None], ["hps"])
     args = types.SimpleNamespace(
         estimator="inversion", modelled_per_class=0, intervals="any-type",
-        mixtures=0, sigma="per-metric", interval_unit="narrowest",
+        mixtures=0, cross_mixtures=0, sigma="per-metric", interval_unit="narrowest",
         peak_shifts="off", planck="on", tm30="off", own_lamps=own,
     )  # fmt: skip
     with pytest.raises(StopAtFitError):

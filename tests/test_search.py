@@ -332,6 +332,7 @@ def test_evaluate_json_schema(tmp_path, capsys):
             "interval90",
             "null_reasons",
             "unexplained",
+            "known_type_p_value",
             "level1_probabilities",
             "level1_top2",
             "predicted_level1",
@@ -341,6 +342,7 @@ def test_evaluate_json_schema(tmp_path, capsys):
         # The HPS lamp is classified with the foundation's identifiers.
         assert r["predicted_level1"] == "hid" and r["predicted_level2"] == "hps"
         assert r["unexplained"] is False
+        assert 0.05 <= r["known_type_p_value"] <= 1  # p >= α: not flagged
         assert abs(sum(r["level1_probabilities"].values()) - 1) < 1e-9
         top = r["level1_top2"]["types"]
         assert top[0]["type"] == "hid" and len(top) == 2
@@ -357,6 +359,12 @@ def test_evaluate_json_schema(tmp_path, capsys):
 
     assert MIXTURES_DEFAULT == MIX_PAIRS
     assert out["mixtures_per_class"] == MIX_PAIRS
+    # and blends of two types, as a pixel holding two lamp types sees them
+    from bandopt.cli._cmd_evaluate import CROSS_MIXTURES_DEFAULT
+    from bandopt.inversion import CROSS_MIX_PAIRS
+
+    assert CROSS_MIXTURES_DEFAULT == CROSS_MIX_PAIRS
+    assert out["cross_mixtures_per_class_pair"] == CROSS_MIX_PAIRS
     desc = out["scene"]["estimator_description"]
     assert "pairwise blends of two measured lamps" in desc
     assert main(["evaluate", "--bands", "no-such-sensor", "--lamps", str(f1)]) == 2

@@ -174,7 +174,7 @@ def test_evaluate_tm30_option(monkeypatch, capsys, tmp_path):
     for on, n in (("on", len(inv_mod.tm30_lamps(GRID).ids)), ("off", 0)):
         args = types.SimpleNamespace(
             estimator="inversion", modelled_per_class=0, intervals="any-type",
-            mixtures=0, sigma="per-metric", interval_unit="narrowest",
+            mixtures=0, cross_mixtures=0, sigma="per-metric", interval_unit="narrowest",
             peak_shifts="off", planck="on", tm30=on, own_lamps=None,
         )  # fmt: skip
         with pytest.raises(StopAtFitError):

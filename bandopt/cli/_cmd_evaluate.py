@@ -109,6 +109,17 @@ def register(subparsers):
         "(results/estimate_mix)",
     )
     p.add_argument(
+        "--cross-mixtures",
+        type=bounded(int, lo=0, why="(a count)"),
+        default=CROSS_MIXTURES_DEFAULT,
+        metavar="N",
+        help="inversion only: also put blends of two lamps of different types "
+        "(the second giving 10, 25 or 40 %% of the light, named by the first) "
+        "into the prior, N lamp pairs per pair of types (default "
+        f"{CROSS_MIXTURES_DEFAULT}; 0: none), as a pixel holding two lamp types "
+        "sees them",
+    )
+    p.add_argument(
         "--peak-shifts",
         choices=tuple(PEAK_SHIFTS),
         default=PEAK_SHIFTS_DEFAULT,
@@ -211,6 +222,10 @@ MIXTURES_DEFAULT = 50
 """Default of `--mixtures`: `bandopt.inversion.MIX_PAIRS` (not imported here:
 the parser is built without JAX)."""
 
+CROSS_MIXTURES_DEFAULT = 3
+"""Default of `--cross-mixtures`: `bandopt.inversion.CROSS_MIX_PAIRS` (not
+imported here: the parser is built without JAX)."""
+
 PEAK_SHIFTS = {"on": "grid", "off": ()}
 """`--peak-shifts` choice -> `bandopt.inversion.fit_inversion(peak_shifts=)`
 ("grid": `PEAK_SHIFTS_NM`, not imported here: the parser is built without
@@ -311,6 +326,9 @@ def merge_candidates(rows: list[dict]) -> dict:
     out = dict(rows[0])
     if len(rows) == 1:
         return out
+    ps = [r.get("known_type_p_value") for r in rows]
+    if None not in ps:  # unexplained only if every candidate is: the largest p
+        out["known_type_p_value"] = max(ps)
     flags = [r.get("unexplained") for r in rows]
     if None not in flags:
         out["unexplained"] = all(flags)
@@ -399,6 +417,7 @@ def _fit(args, ctx, bands, mode):
         basis = inv_mod.surface_basis(grid)
         config = InversionConfig(
             mixtures=args.mixtures,
+            cross_mixtures=args.cross_mixtures,
             peak_shifts_nm=(
                 inv_mod.PEAK_SHIFTS_NM
                 if PEAK_SHIFTS[args.peak_shifts] == "grid"
@@ -430,6 +449,7 @@ def _fit(args, ctx, bands, mode):
         added = inv.diagnostics["modelled_lamps"]["added"]
         n_model = sum(added.values())
         n_mix = inv.diagnostics["mixtures"]["n"]
+        n_xmix = inv.diagnostics.get("cross_mixtures", {}).get("n", 0)
         shifted = inv.diagnostics["peak_shifts"]
         n_planck = sum(i.startswith("planck_") for i in inv.prior.ids)
         n_tm30 = sum(i.startswith("ies_tm30_") for i in inv.prior.ids)
@@ -440,6 +460,7 @@ def _fit(args, ctx, bands, mode):
             - n_nir
             - n_model
             - n_mix
+            - n_xmix
             - shifted["n"]
             - n_planck
             - n_tm30
@@ -466,6 +487,12 @@ def _fit(args, ctx, bands, mode):
             prior += (
                 f", with {n_mix} pairwise blends of two measured lamps of one "
                 f"class (up to {args.mixtures} pairs per class)"
+            )
+        if n_xmix:
+            prior += (
+                f", {n_xmix} blends of two lamps of different types (10, 25 or 40 "
+                "% of the light from the second; named by the first; "
+                f"{args.cross_mixtures} pairs per pair of types)"
             )
         if shifted["n"]:
             prior += (
@@ -778,6 +805,11 @@ def run(args) -> int:
             "--mixtures: blends go into the prior of --estimator inversion only "
             f"(got --estimator {args.estimator})."
         )
+    if args.cross_mixtures != CROSS_MIXTURES_DEFAULT and args.estimator != "inversion":
+        raise ValueError(
+            "--cross-mixtures: blends go into the prior of --estimator inversion "
+            f"only (got --estimator {args.estimator})."
+        )
     if args.sigma != "per-metric" and args.estimator != "inversion":
         raise ValueError(
             f"--sigma {args.sigma}: for --estimator inversion only (got "
@@ -927,6 +959,7 @@ def run(args) -> int:
                 "interval90": r["interval90"],
                 "null_reasons": r["null_reasons"],
                 "unexplained": r["unexplained"],
+                "known_type_p_value": r.get("known_type_p_value"),
                 "level1_probabilities": r["level1_probabilities"],
                 "level1_top2": r.get("level1_top2"),
                 "predicted_level1": r["predicted_level1"],
@@ -958,6 +991,9 @@ def run(args) -> int:
         "warnings": warnings,
         "modelled_lamps_used": args.modelled_per_class,
         "mixtures_per_class": args.mixtures if args.estimator == "inversion" else 0,
+        "cross_mixtures_per_class_pair": (
+            args.cross_mixtures if args.estimator == "inversion" else 0
+        ),
         "modelled_in_prior": (
             [i for i in model.prior.ids if i.startswith("planck_")]
             if args.estimator == "inversion"

@@ -235,6 +235,7 @@ from ._surfaces import (
     surface_from_sentinel2 as surface_from_sentinel2,
 )
 from ._variants import (
+    CROSS_MIX_PAIRS as CROSS_MIX_PAIRS,
     CROSS_MIX_SHARES as CROSS_MIX_SHARES,
     DIRECT_LED_MAX_FWHM_NM as DIRECT_LED_MAX_FWHM_NM,
     MIX_FRACTIONS as MIX_FRACTIONS,
