@@ -5,7 +5,9 @@
 - `global_search`, `NloptObjective` (`_global`): nlopt, the one JAX <-> nlopt adapter;
 - `fit_local` (`_local`): optimistix BFGS / Levenberg-Marquardt on `BandSet` leaves;
 - `grid_search`, `grid_pairs` (`_grid`): exhaustive 10 nm baseline;
-- `make_task`, `run_task`, `get_context`, `evaluate_bands` (`_task`): one search;
+- `get_context`, `PRESETS` (`_context`): a preset's scenario context, with
+  the measurement effects of its lamp spectra (`_perturbed`);
+- `make_task`, `run_task`, `evaluate_bands` (`_task`): one search;
 - `run_sweep` (`_sweep`): parallel (spawned processes or Dask), resumable sweeps;
 - `lamp_resamples`, `make_batch_data`, `batched_search` (`_stability`): all lamp
   resamples of one band count: nlopt explores each, optimistix BFGS fits from
@@ -39,6 +41,10 @@ from ._compare import (
     Comparison as Comparison,
     compare_with_references as compare_with_references,
     pool_folds as pool_folds,
+)
+from ._context import (
+    PRESETS as PRESETS,
+    get_context as get_context,
 )
 from ._global import (
     ALGORITHMS as ALGORITHMS,
@@ -91,10 +97,8 @@ from ._sweep import (
     task_path as task_path,
 )
 from ._task import (
-    PRESETS as PRESETS,
     TaskResult as TaskResult,
     evaluate_bands as evaluate_bands,
-    get_context as get_context,
     make_task as make_task,
     run_task as run_task,
     task_id as task_id,
