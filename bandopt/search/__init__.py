@@ -13,7 +13,8 @@
   resamples of one band count: nlopt explores each, optimistix BFGS fits from
   its best distinct points (all resamples and starts in one jitted, vmapped
   function, each fit's result recorded), with the joint
-  estimation/classification loss and the band-overlap penalty;
+  estimation/classification loss and the band-overlap penalty (`_batch_loss`:
+  the resamples, their shared arrays and the loss);
 - `make_study_task`, `run_study_task`, `SCORERS` (`_study`): stability-study
   tasks and the pluggable outer-fold estimator (a `FittedScorer`, whose
   `hyper` a refit can keep); `_analysis`: the stated rules
