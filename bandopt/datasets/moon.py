@@ -46,23 +46,33 @@ from ephem's colongitude (`90° - colong`); the observer's selenographic
 latitude/longitude from ephem's libration, which is *geocentric* (the
 topocentric libration differs by up to about 1°, which changes ROLO's
 libration terms by about 0.1 %).
+
+The solar spectrum and the illuminance live in `_solar`, the ephemeris
+geometry and the date, time and place checks in `_moon_geometry`; every
+name is importable from here.
 """
 
 import dataclasses
 import datetime as dt
-import functools
 import math
-import re
 from importlib import resources
 
-import ephem
-import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import ArrayLike, Float
 
 from ..names import canonical_key
-from ..photometry import K_M_LM_PER_W
-from ..spectra import GRID_1NM, VISIBLE_NM, trapezoid_weights
+from ..photometry import K_M_LM_PER_W as K_M_LM_PER_W
+from ..spectra import GRID_1NM as GRID_1NM
+from ._moon_geometry import (
+    _as_utc,
+    _check_place,
+    _finite,
+    _parse_date,
+    _wrap_deg,
+    ephemeris_geometry,
+    overpass_utc,
+)
+from ._solar import _grid, illuminance_lx as illuminance_lx, solar_irradiance_toa
 
 
 ROLO_PHASE_RANGE_DEG: tuple[float, float] = (1.55, 97.0)
@@ -104,20 +114,6 @@ _TABLE = _load_rolo_table()
 ROLO_WAVELENGTH_NM: np.ndarray = _TABLE[:, 0].copy()
 """Centre wavelengths of the 32 ROLO bands. [nm]"""
 _A, _B, _D = _TABLE[:, 1:5], _TABLE[:, 5:8], _TABLE[:, 8:11]
-
-
-def _wrap_deg(angle_deg: float) -> float:
-    """Wrap an angle to (-180, 180]. [deg]"""
-    wrapped = math.fmod(angle_deg + 180.0, 360.0)
-    wrapped = wrapped + 360.0 if wrapped <= 0.0 else wrapped
-    return wrapped - 180.0
-
-
-def _finite(name: str, value: float) -> float:
-    value = float(value)
-    if not math.isfinite(value):
-        raise ValueError(f"`{name}` must be finite, got {value}.")
-    return value
 
 
 def _check_phase(phase_angle_deg: float) -> float:
@@ -179,71 +175,6 @@ def rolo_ln_reflectance(
     return polynomial + sun_terms + libration + nonlinear
 
 
-def _grid(wavelength_nm: ArrayLike, name: str = "wavelength_nm") -> np.ndarray:
-    w = np.atleast_1d(np.asarray(wavelength_nm, dtype=float))
-    if w.ndim != 1 or w.size == 0:
-        raise ValueError(
-            f"`{name}` must be a non-empty 1-D array, got shape {w.shape}."
-        )
-    if not np.all(np.isfinite(w)):
-        raise ValueError(f"`{name}` contains NaN or infinity.")
-    if np.any(np.diff(w) <= 0):
-        raise ValueError(f"`{name}` must be strictly increasing.")
-    return w
-
-
-@functools.lru_cache(maxsize=1)
-def _g173_extraterrestrial() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """ASTM G173-03 extraterrestrial spectrum and its running integral (pvlib)."""
-    # start-up time: pvlib takes ~1 s to import
-    import pvlib.spectrum
-
-    table = pvlib.spectrum.get_reference_spectra(standard="ASTM G173-03")
-    x = table.index.to_numpy(dtype=float)
-    y = table["extraterrestrial"].to_numpy(dtype=float)
-    cumulative = np.concatenate([[0.0], np.cumsum(0.5 * (y[1:] + y[:-1]) * np.diff(x))])
-    return x, y, cumulative
-
-
-def _g173_integral_to(x_nm: np.ndarray) -> np.ndarray:
-    """Exact ∫_{280}^{x} of the piecewise-linear G173 spectrum. [W m⁻²]"""
-    x, y, cumulative = _g173_extraterrestrial()
-    i = np.clip(np.searchsorted(x, x_nm, side="right") - 1, 0, x.size - 2)
-    dx = x_nm - x[i]
-    slope = (y[i + 1] - y[i]) / (x[i + 1] - x[i])
-    return cumulative[i] + y[i] * dx + 0.5 * slope * dx**2
-
-
-def solar_irradiance_toa(
-    wavelength_nm: ArrayLike = GRID_1NM,
-) -> Float[np.ndarray, " w"]:
-    """ASTM G173-03 extraterrestrial solar spectrum, grid-cell averages. [W m⁻² nm⁻¹]
-
-    Cell edges lie halfway between grid points (half a step beyond the end
-    points); the piecewise-linear G173 table is integrated exactly over each
-    cell and divided by its width. One wavelength: linear interpolation.
-    The cells must lie within G173's 280-4000 nm, else `ValueError`.
-    References: `ASTMG173`, `Holmgren2018`.
-    """
-    w = _grid(wavelength_nm)
-    x, y, _ = _g173_extraterrestrial()
-    if w.size == 1:
-        edges = w
-    else:
-        mid = 0.5 * (w[1:] + w[:-1])
-        edges = np.concatenate(
-            [[w[0] - (mid[0] - w[0])], mid, [w[-1] + (w[-1] - mid[-1])]]
-        )
-    if edges[0] < x[0] or edges[-1] > x[-1]:
-        raise ValueError(
-            f"`wavelength_nm` spans {edges[0]:g}-{edges[-1]:g} nm with its cell edges; "
-            f"the ASTM G173 solar spectrum covers {x[0]:g}-{x[-1]:g} nm."
-        )
-    if w.size == 1:
-        return np.interp(w, x, y)
-    return np.diff(_g173_integral_to(edges)) / np.diff(edges)
-
-
 def lunar_irradiance_toa(
     phase_angle_deg: float,
     wavelength_nm: ArrayLike = GRID_1NM,
@@ -303,53 +234,6 @@ def lunar_irradiance_toa(
         * (MOON_SOLID_ANGLE_SR / math.pi)
         * solar_irradiance_toa(w)
         * distance
-    )
-
-
-@functools.lru_cache(maxsize=1)
-def _photopic_table() -> tuple[np.ndarray, np.ndarray]:
-    # start-up time: colour takes ~1.5 s to import
-    import colour
-
-    lef = colour.SDS_LEFS["CIE 1924 Photopic Standard Observer"]
-    return np.asarray(lef.wavelengths, float), np.asarray(lef.values, float)
-
-
-def illuminance_lx(
-    irradiance_w_m2_nm: Float[ArrayLike, "*batch w"],
-    wavelength_nm: Float[ArrayLike, " w"] = GRID_1NM,
-) -> Float[Array, "*batch"]:
-    """Illuminance `K_m ∫ E(λ) V(λ) dλ` over 380-780 nm, `K_m = 683 lm W⁻¹`. [lx]
-
-    `V(λ)` is the CIE 1924 photopic luminous efficiency function from
-    colour-science (`CIE2018`, `Mansencal2025`), linearly interpolated onto
-    `wavelength_nm`; the trapezoid rule runs over the samples within
-    380-780 nm, so the grid must reach both ends (else `ValueError`).
-    `irradiance_w_m2_nm` may be a traced JAX array; `wavelength_nm` is static.
-
-    - `irradiance_w_m2_nm`: spectral irradiance, last axis wavelength. [W m⁻² nm⁻¹]
-    - `wavelength_nm`: its grid. [nm]
-    """
-    w = _grid(wavelength_nm)
-    lo, hi = VISIBLE_NM
-    if w[0] > lo or w[-1] < hi:
-        raise ValueError(
-            f"`wavelength_nm` spans {w[0]:g}-{w[-1]:g} nm; illuminance needs "
-            f"{lo:g}-{hi:g} nm."
-        )
-    inside = (w >= lo) & (w <= hi)
-    weights = np.zeros_like(w)
-    weights[inside] = np.asarray(trapezoid_weights(w[inside]))
-    v_x, v_y = _photopic_table()
-    weights = weights * np.interp(w, v_x, v_y, left=0.0, right=0.0) * K_M_LM_PER_W
-    irradiance = jnp.asarray(irradiance_w_m2_nm)
-    if irradiance.shape[-1:] != w.shape:
-        raise ValueError(
-            f"`irradiance_w_m2_nm` has {irradiance.shape[-1:]} wavelength samples but "
-            f"`wavelength_nm` has {w.size}."
-        )
-    return jnp.matmul(
-        irradiance, jnp.asarray(weights, irradiance.dtype), precision="highest"
     )
 
 
@@ -493,27 +377,6 @@ def named_phase(name: str, zenith_deg: float = 30.0) -> MoonState:
     return MoonState(canonical, g, waxing, zenith_deg=_finite("zenith_deg", zenith_deg))
 
 
-def _as_utc(date_utc: dt.datetime) -> dt.datetime:
-    if not isinstance(date_utc, dt.datetime):
-        raise ValueError(
-            f"`date_utc` must be a datetime, got {type(date_utc).__name__}."
-        )
-    if date_utc.tzinfo is not None:
-        date_utc = date_utc.astimezone(dt.UTC).replace(tzinfo=None)
-    return date_utc
-
-
-def _check_place(lat_deg: float, lon_deg: float) -> tuple[float, float]:
-    lat, lon = _finite("lat_deg", lat_deg), _finite("lon_deg", lon_deg)
-    if not -90.0 <= lat <= 90.0:
-        raise ValueError(f"`lat_deg` must be within -90..90, got {lat:g}.")
-    if not -180.0 <= lon <= 360.0:
-        raise ValueError(
-            f"`lon_deg` must be within -180..360 (east positive), got {lon:g}."
-        )
-    return lat, _wrap_deg(lon)
-
-
 def moon_state(
     date_utc: dt.datetime, lat_deg: float, lon_deg: float, *, elevation_m: float = 0.0
 ) -> MoonState:
@@ -532,78 +395,20 @@ def moon_state(
     """
     when = _as_utc(date_utc)
     lat, lon = _check_place(lat_deg, lon_deg)
-    observer = ephem.Observer()
-    observer.lat, observer.lon = math.radians(lat), math.radians(lon)
-    observer.elevation = _finite("elevation_m", elevation_m)
-    observer.pressure = 0.0  # geometric altitude: no refraction
-    observer.date = ephem.Date(when)
-    moon, sun = ephem.Moon(observer), ephem.Sun(observer)
-
-    km_per_au = ephem.meters_per_au / 1e3
-    r_moon_km = float(moon.earth_distance) * km_per_au
-    r_sun_km = float(sun.earth_distance) * km_per_au
-    elongation = float(ephem.separation((moon.ra, moon.dec), (sun.ra, sun.dec)))
-    phase = math.degrees(
-        math.atan2(
-            r_sun_km * math.sin(elongation), r_moon_km - r_sun_km * math.cos(elongation)
-        )
-    )
-    sun_lon = _wrap_deg(90.0 - math.degrees(float(moon.colong)))
-    obs_lat = math.degrees(float(moon.libration_lat))
-    obs_lon = _wrap_deg(math.degrees(float(moon.libration_long)))
-    waxing = _wrap_deg(sun_lon - obs_lon) > 0.0
+    g = ephemeris_geometry(when, lat, lon, elevation_m)
     return MoonState(
-        name=phase_name(phase, waxing),
-        phase_angle_deg=phase,
-        waxing=waxing,
-        zenith_deg=90.0 - math.degrees(float(moon.alt)),
-        moon_distance_km=r_moon_km,
-        sun_distance_au=float(moon.sun_distance),
-        sun_selenographic_lon_deg=sun_lon,
-        observer_lat_deg=obs_lat,
-        observer_lon_deg=obs_lon,
-        azimuth_deg=math.degrees(float(moon.az)),
+        name=phase_name(g.phase_angle_deg, g.waxing),
+        phase_angle_deg=g.phase_angle_deg,
+        waxing=g.waxing,
+        zenith_deg=g.zenith_deg,
+        moon_distance_km=g.moon_distance_km,
+        sun_distance_au=g.sun_distance_au,
+        sun_selenographic_lon_deg=g.sun_selenographic_lon_deg,
+        observer_lat_deg=g.observer_lat_deg,
+        observer_lon_deg=g.observer_lon_deg,
+        azimuth_deg=g.azimuth_deg,
         date_utc=when,
     )
-
-
-def _parse_local_time(local_time: str | dt.time) -> dt.time:
-    if isinstance(local_time, dt.time):
-        return local_time
-    match = re.fullmatch(r"\s*(\d{1,2}):(\d{2})\s*", str(local_time))
-    if not match or int(match[1]) > 23 or int(match[2]) > 59:
-        raise ValueError(
-            f"`local_time` must be 'HH:MM' (00:00-23:59), got {local_time!r}."
-        )
-    return dt.time(int(match[1]), int(match[2]))
-
-
-def _parse_date(date: str | dt.date) -> dt.date:
-    if isinstance(date, dt.datetime):
-        raise ValueError(
-            "`date` is a local calendar date; give a date, not a datetime."
-        )
-    if isinstance(date, dt.date):
-        return date
-    try:
-        return dt.date.fromisoformat(str(date).strip())
-    except ValueError:
-        raise ValueError(f"`date` must be YYYY-MM-DD, got {date!r}.") from None
-
-
-def overpass_utc(
-    date: str | dt.date, lon_deg: float, local_time: str | dt.time = "01:30"
-) -> dt.datetime:
-    """UTC moment of `local_time` (local *mean* solar time) on local `date`. [datetime]
-
-    `UTC = date + local_time - lon_deg / 15 h`: the mean-Sun clock that
-    sun-synchronous orbits keep (the equation of time, up to ±16 min, is ignored).
-    "01:30" on 2019-07-03 is the small hours after the evening of 2019-07-02.
-    """
-    day = _parse_date(date)
-    clock = _parse_local_time(local_time)
-    lon = _wrap_deg(_finite("lon_deg", lon_deg))
-    return dt.datetime.combine(day, clock) - dt.timedelta(hours=lon / 15.0)
 
 
 def moon_at_overpass(

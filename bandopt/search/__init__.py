@@ -5,13 +5,16 @@
 - `global_search`, `NloptObjective` (`_global`): nlopt, the one JAX <-> nlopt adapter;
 - `fit_local` (`_local`): optimistix BFGS / Levenberg-Marquardt on `BandSet` leaves;
 - `grid_search`, `grid_pairs` (`_grid`): exhaustive 10 nm baseline;
-- `make_task`, `run_task`, `get_context`, `evaluate_bands` (`_task`): one search;
+- `get_context`, `PRESETS` (`_context`): a preset's scenario context, with
+  the measurement effects of its lamp spectra (`_perturbed`);
+- `make_task`, `run_task`, `evaluate_bands` (`_task`): one search;
 - `run_sweep` (`_sweep`): parallel (spawned processes or Dask), resumable sweeps;
 - `lamp_resamples`, `make_batch_data`, `batched_search` (`_stability`): all lamp
   resamples of one band count: nlopt explores each, optimistix BFGS fits from
   its best distinct points (all resamples and starts in one jitted, vmapped
   function, each fit's result recorded), with the joint
-  estimation/classification loss and the band-overlap penalty;
+  estimation/classification loss and the band-overlap penalty (`_batch_loss`:
+  the resamples, their shared arrays and the loss);
 - `make_study_task`, `run_study_task`, `SCORERS` (`_study`): stability-study
   tasks and the pluggable outer-fold estimator (a `FittedScorer`, whose
   `hyper` a refit can keep); `_analysis`: the stated rules
@@ -39,6 +42,10 @@ from ._compare import (
     Comparison as Comparison,
     compare_with_references as compare_with_references,
     pool_folds as pool_folds,
+)
+from ._context import (
+    PRESETS as PRESETS,
+    get_context as get_context,
 )
 from ._global import (
     ALGORITHMS as ALGORITHMS,
@@ -91,10 +98,8 @@ from ._sweep import (
     task_path as task_path,
 )
 from ._task import (
-    PRESETS as PRESETS,
     TaskResult as TaskResult,
     evaluate_bands as evaluate_bands,
-    get_context as get_context,
     make_task as make_task,
     run_task as run_task,
     task_id as task_id,

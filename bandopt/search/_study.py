@@ -23,6 +23,7 @@ from ..estimate import CCT_RANGE_K, fit_estimator, lamp_abs_errors
 from ..knn import choose_k, features, neighbour_labels, vote_proba
 from ..sensor import SensorParams, noise_electrons, signal_electrons
 from ..sensor.reference import reference_sensor
+from ._context import _scale_to, get_context
 from ._problem import Space
 from ._stability import (
     LOCAL_ATOL,
@@ -34,7 +35,6 @@ from ._stability import (
     overlap_matrix,
     sorted_design,
 )
-from ._task import _scale_to, get_context
 
 
 DEFAULT_SCORER = "inversion"

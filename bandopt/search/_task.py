@@ -6,423 +6,44 @@ builds (and caches per process) the scenario context, runs the global search
 (nlopt) and a local polish (optimistix), then scores the bands on the outer
 test lamps with the estimator refitted on the outer training lamps (ridge
 strength chosen on the inner folds). Everything it returns is JSON-ready.
+
+The scenario context (`Context`, `get_context`, `PRESETS`) is built in
+`_context`, the measurement effects of a preset's spectra in `_perturbed`;
+both are re-exported here, where callers and tests have imported them.
 """
 
 import dataclasses
-import functools
 import hashlib
 import json
-import math
 import time
 
 import jax.numpy as jnp
 import numpy as np
 
-from .. import perturb
 from ..datasets import atmosphere
-from ..datasets.lamps import library
-from ..estimate import (
-    LampTable,
-    fit_estimator,
-    lamp_abs_errors,
-    lamp_truth,
-    resolve_target,
-)
-from ..folds import N_INNER_FOLDS, N_OUTER_FOLDS, nested_lamp_splits
-from ..forward import band_radiance, dense_spectra
-from ..inversion import LampSet, library_lamps, nir_variants
-from ..scene import LIGHTING_CLASSES, build_scenarios
+from ..estimate import fit_estimator, lamp_abs_errors, resolve_target
 from ..sensor.reference import reference_sensor
+from ._context import (
+    ATMOSPHERES_6S as ATMOSPHERES_6S,
+    EVALUATION_SEED_OFFSET as EVALUATION_SEED_OFFSET,
+    N_INNER as N_INNER,
+    N_OUTER as N_OUTER,
+    PRESETS as PRESETS,
+    Context as Context,
+    _scale_to as _scale_to,
+    get_context as get_context,
+    parse_noise as parse_noise,
+)
 from ._global import global_search
 from ._local import bandset_losses, fit_local, free_bandset
-from ._problem import Space, jitted_losses, make_problem, scenario_spectra
-
-
-KINDS = ("clean", "nir-low", "nir-high", "background-flat", "noise", "shift")
-"""Kinds of a scene's lamp spectrum: the library's (`clean`) or one
-measurement effect of `ScenePerturbations` (the `scene_kind` of a row)."""
-
-
-@dataclasses.dataclass(frozen=True)
-class ScenePerturbations:
-    """Measurement effects on each lamp's spectrum under which a context
-    repeats that lamp's scenes, so a band search and its judge cannot lean on
-    the library's modelled near-infrared or on clean laboratory spectra.
-
-    Every effect acts on the lamp's per-lumen spectrum before the scene (the
-    surface, atmosphere, Moon and lighting class are the clean scene's); the
-    result is renormalised to one lumen, the library's convention. Each row
-    keeps its lamp's index and so its labels (LER, G, CCT and types of the
-    clean visible spectrum): the effects are what a spectrum holds beyond the
-    lamp, not a different lamp.
-
-    - `nir_error`: a lamp whose 780-900 nm part is modelled
-      (`LampRecord.extended`) is repeated with that part at the low and at
-      the high end of its class's measured extension error
-      (`inversion.nir_variants`, `datasets.nir.extension_error`; kinds
-      `nir-low`, `nir-high`); a lamp measured to 900 nm is repeated unchanged.
-    - `background_fraction`: a flat background whose visible power is this
-      share of the lamp's (`perturb.add_flat_background`), None for none. [1]
-    - `noise_snr`: spectrometer noise at this SNR per nm against the mean
-      visible level (`perturb.add_spectrometer_noise`, one seeded draw per
-      lamp, the same in every scene of the lamp), None for none. [1]
-    - `shift_nm`: a wavelength-calibration error (`perturb.shift_wavelength`),
-      None for none. [nm]
-    - `copies`: perturbed copies of each clean scene. None: one per kind
-      (every kind under every scene). An integer `k` smaller than the number
-      of kinds: `k` copies whose kinds are drawn for each lamp (a seeded
-      permutation of the kinds, walked cyclically over the lamp's scenes and
-      copies, so the kinds of one scene differ and each kind covers a share
-      `k / kinds` of the lamp's scenes, within one scene).
-    - `seed`: seed of the noise draw and of the kind permutations.
-    """
-
-    nir_error: bool = True
-    background_fraction: float | None = 0.01
-    noise_snr: float | None = 100.0
-    shift_nm: float | None = 1.0
-    copies: int | None = None
-    seed: int = 0
-
-    def __post_init__(self):
-        if self.background_fraction is not None and not self.background_fraction > 0:
-            raise ValueError(
-                f"background_fraction {self.background_fraction!r}: need a share > 0 "
-                "of the visible power, or None for no background."
-            )
-        if self.noise_snr is not None and not self.noise_snr > 0:
-            raise ValueError(
-                f"noise_snr {self.noise_snr!r}: need an SNR > 0, or None for no noise."
-            )
-        if self.shift_nm is not None and not (
-            np.isfinite(self.shift_nm) and self.shift_nm != 0
-        ):
-            raise ValueError(
-                f"shift_nm {self.shift_nm!r}: need a finite shift != 0 [nm], or "
-                "None for no shift."
-            )
-        if not self.kinds:
-            raise ValueError("ScenePerturbations: every effect is off; use no config.")
-        if self.copies is not None and not 1 <= self.copies <= len(self.kinds):
-            raise ValueError(
-                f"copies {self.copies!r}: need 1..{len(self.kinds)} (the number of "
-                "kinds), or None for every kind under every scene."
-            )
-
-    @property
-    def kinds(self) -> tuple[str, ...]:
-        """The perturbation kinds switched on, in `KINDS` order."""
-        on = {
-            "nir-low": self.nir_error,
-            "nir-high": self.nir_error,
-            "background-flat": self.background_fraction is not None,
-            "noise": self.noise_snr is not None,
-            "shift": self.shift_nm is not None,
-        }
-        return tuple(k for k in KINDS[1:] if on[k])
-
-    @property
-    def n_copies(self) -> int:
-        """Perturbed copies of each clean scene."""
-        return len(self.kinds) if self.copies is None else int(self.copies)
-
-    def to_dict(self) -> dict:
-        """The settings and the kinds, JSON-ready (a context's provenance)."""
-        return {**dataclasses.asdict(self), "kinds": list(self.kinds)}
-
-
-MEASURED_SPECTRA = ScenePerturbations(copies=2)
-"""The perturbations of the `search_perturbed` preset: the modelled NIR at
-its measured error bounds (the search must not rest on a model's 780-900 nm
-part), a 1 % flat background (stray light and dark level, the middle of the
-0.5-2 % a field or satellite spectrum holds; flat, because it lifts the NIR
-where lamps are weakest), noise at SNR 100 per nm (an ordinary
-spectrometer) and a 1 nm shift (a calibrated spectrometer's wavelength
-error; a band edge on a line must not depend on the line's exact place).
-Two perturbed copies of each clean scene, not five: the study's run time
-grows with the rows, and two copies already give every lamp every kind
-(the study's 8 clean scenes per lamp x 2 copies over 5 kinds: each kind
-under 3 or 4 of them)."""
-
-PRESETS = {
-    # scenario presets: surfaces x atmospheres x moons x classes (scored lamps),
-    # optionally `perturbations` (a `ScenePerturbations`)
-    "search": dict(
-        surfaces=("asphalt", "concrete_roof_tile", "grass", "soil"),
-        moons=(None, "full"),
-        classes=("P1", "P6"),
-    ),
-    "search_perturbed": dict(
-        surfaces=("asphalt", "concrete_roof_tile", "grass", "soil"),
-        moons=(None, "full"),
-        classes=("P1", "P6"),
-        perturbations=MEASURED_SPECTRA,
-    ),
-    "quick": dict(surfaces=("asphalt", "grass"), moons=(None,), classes=("P4",)),
-    "tiny": dict(surfaces=("asphalt",), moons=(None,), classes=("P4",)),
-}
-"""Scenario presets. Atmospheres: two 6S atmospheres when the tables are
-installed (`ATMOSPHERES_6S`), otherwise none (recorded in every result).
-`search_perturbed`: the `search` scenes, each repeated under measurement
-effects of the lamp spectrum (`MEASURED_SPECTRA`)."""
-
-ATMOSPHERES_6S = (
-    ("midlatitude_summer", "urban", 23.0),
-    ("tropical", "continental", 10.0),
+from ._perturbed import (
+    KINDS as KINDS,
+    MEASURED_SPECTRA as MEASURED_SPECTRA,
+    ScenePerturbations as ScenePerturbations,
+    perturbed_lamp_spectra as perturbed_lamp_spectra,
+    perturbed_scenes as perturbed_scenes,
 )
-
-N_OUTER, N_INNER = N_OUTER_FOLDS, N_INNER_FOLDS
-
-
-@dataclasses.dataclass(frozen=True)
-class Context:
-    """A scenario set ready for searches: spectra `(l, q, w)`, lamp table,
-    nested splits, labels, and the photon-noise setting.
-
-    `scene_kind` `(l, q)`: the index into `KINDS` of each scene's lamp
-    spectrum (all 0, `clean`, without `ScenePerturbations`). The scenes of a lamp are
-    surface x copy x atmosphere x Moon x class in C order (copy 0 the clean
-    spectrum; one copy without perturbations), so a scene's surface, Moon and
-    class sit where the clean layout puts them."""
-
-    preset: str
-    toa: np.ndarray
-    wavelength_nm: np.ndarray
-    table: LampTable
-    lamp_ids: tuple[str, ...]
-    splits: tuple
-    config: dict
-    noise: bool
-    noise_radiance: float | None
-    scene_kind: np.ndarray | None = None
-
-    def radiance(self, bands, *, seed: int = 0) -> np.ndarray:
-        """Band-averaged radiance `(N, b)` of every scene for any band set
-        (`BandSet` or `TabulatedBands`; response on the 380-900 nm grid,
-        averaged over its on-grid part), noisy when the context has noise.
-
-        Evaluation draws come from `seed + EVALUATION_SEED_OFFSET`, so a band
-        set found with the search draws of `seed` is scored on fresh noise."""
-        return self.radiance_of(self.toa, bands, seed=seed)
-
-    def radiance_of(self, toa, bands, *, seed: int = 0) -> np.ndarray:
-        """`radiance` for other spectra under this context's scenes, e.g.
-        modelled lamps' `(m, q, w)` (same scaling to the noise level, same
-        noise rule, draws from `seed + EVALUATION_SEED_OFFSET`: give a seed
-        of its own to keep them apart from the measured rows' draws)."""
-        toa = np.asarray(toa).reshape(-1, np.shape(toa)[-1])
-        if self.noise_radiance is not None:
-            toa = _scale_to(toa, self.wavelength_nm, self.noise_radiance)
-        return np.asarray(
-            band_radiance(
-                toa,
-                bands,
-                wavelength_nm=self.wavelength_nm,
-                noise=self.noise,
-                key=seed + EVALUATION_SEED_OFFSET,
-            )
-        )
-
-
-EVALUATION_SEED_OFFSET = 7919
-"""`Context.radiance(seed=s)` draws its noise from seed `s + 7919`: held-out
-scoring never reuses the draws the search of seed `s` was fitted on."""
-
-
-def _scale_to(toa, wl, level):
-    band = (wl >= 400) & (wl <= 900)
-    return toa * (level / toa[:, band].mean(axis=1))[:, None]
-
-
-def parse_noise(level: str | None) -> tuple[dict, bool, float | None]:
-    """`--noise LEVEL` -> (preset overrides, noise on, radiance level)."""
-    if level is None or str(level).lower() in ("", "none"):
-        return {}, False, None
-
-    key = str(level).strip().upper()
-    if key in LIGHTING_CLASSES:
-        return {"classes": (key,), "moons": (None,)}, True, None
-    try:
-        value = float(level)
-    except ValueError:
-        raise ValueError(
-            f"--noise {level!r}: expected an EN 13201 class "
-            f"{list(LIGHTING_CLASSES)} or a radiance [W m-2 sr-1 nm-1]."
-        ) from None
-    if not (value > 0 and math.isfinite(value)):
-        raise ValueError(
-            f"--noise {level!r}: a radiance level must be finite and > 0 "
-            "[W m-2 sr-1 nm-1]."
-        )
-    return {"moons": (None,), "classes": ("P4",)}, True, value
-
-
-def perturbed_lamp_spectra(
-    lamps: LampSet, wavelength_nm, config: ScenePerturbations
-) -> dict[str, np.ndarray]:
-    """Each kind of `config.kinds` applied to the library lamps `lamps`
-    (per-lumen spectra `(l, w)` on the 1 nm grid `wavelength_nm`), by kind,
-    each `(l, w)` per lumen (see `ScenePerturbations`). A lamp without a
-    modelled NIR part keeps its spectrum in `nir-low` and `nir-high`."""
-    grid = np.asarray(wavelength_nm, float)
-    clean = np.asarray(lamps.spectra, float)
-    out = {}
-    if config.nir_error:
-        var = nir_variants(lamps, grid)
-        row = {lamp_id: k for k, lamp_id in enumerate(var.ids)}
-        for tag in ("nir-low", "nir-high"):
-            s = clean.copy()
-            for i, lamp_id in enumerate(lamps.ids):
-                k = row.get(f"{tag}:{lamp_id}")
-                if k is not None:
-                    s[i] = var.spectra[k]
-            out[tag] = s
-    rest = {
-        "background-flat": lambda: perturb.add_flat_background(
-            clean, grid, config.background_fraction
-        ),
-        "noise": lambda: perturb.add_spectrometer_noise(
-            clean, grid, config.noise_snr, seed=config.seed
-        ),
-        "shift": lambda: perturb.shift_wavelength(clean, grid, config.shift_nm),
-    }
-    for kind in config.kinds:
-        if kind in rest:
-            s = rest[kind]()
-            out[kind] = s / perturb.luminous_flux_lm(s, grid)[:, None]
-    return out
-
-
-def perturbed_scenes(
-    scen, lamps: LampSet, config: ScenePerturbations
-) -> tuple[np.ndarray, np.ndarray]:
-    """TOA spectra `(l, q, w)` of the scenes of `scen` (a `ScenarioSet` of
-    the lamps `lamps`) with each scene repeated under `config`, and the kind
-    of each scene `(l, q)` (indices into `KINDS`). Layout of a lamp's `q`
-    scenes: surface x copy x atmosphere x Moon x class (C order), copy 0 the
-    clean scene and copies 1.. the perturbed ones (`ScenePerturbations`)."""
-    if tuple(scen.lamp_ids) != tuple(lamps.ids):
-        raise ValueError(
-            "perturbed_scenes: the scenario set's lamps and `lamps` differ."
-        )
-    grid = np.asarray(scen.factors.wavelength_nm, float)
-    spectra = {"clean": lamps.spectra, **perturbed_lamp_spectra(lamps, grid, config)}
-    kinds = ("clean", *config.kinds)
-    dense = np.stack(
-        [
-            np.asarray(dense_spectra(scen.with_lamps(lamps.ids, spectra[k])))
-            for k in kinds
-        ]
-    )  # (kinds, l, s, a, m, c, w)
-    n_k, n_l, n_s, n_a, n_m, n_c, n_w = dense.shape
-    n_copy = 1 + config.n_copies
-    # kind index (into `kinds`) of every (lamp, surface, copy, atm, moon, class)
-    pick = np.zeros((n_l, n_s, n_copy, n_a, n_m, n_c), int)
-    if config.copies is None:
-        pick[:] = np.arange(n_copy)[None, None, :, None, None, None]
-    else:
-        per_lamp = n_s * n_a * n_m * n_c
-        scene = np.arange(per_lamp).reshape(n_s, n_a, n_m, n_c)
-        rng = np.random.default_rng([config.seed, 1])
-        for i in range(n_l):
-            order = 1 + rng.permutation(n_k - 1)
-            start = rng.integers(n_k - 1)
-            for c in range(config.n_copies):
-                walk = (scene * config.n_copies + c + start) % (n_k - 1)
-                pick[i, :, 1 + c] = order[walk]
-    idx = np.indices(pick.shape)
-    lamp_i, s_i, _, a_i, m_i, c_i = idx
-    toa = dense[pick, lamp_i, s_i, a_i, m_i, c_i]  # (l, s, copy, a, m, c, w)
-    kind_of = np.asarray([KINDS.index(k) for k in kinds])
-    return (
-        toa.reshape(n_l, -1, n_w),
-        kind_of[pick].reshape(n_l, -1),
-    )
-
-
-@functools.lru_cache(maxsize=8)
-def get_context(
-    preset: str = "search",
-    noise: str | None = None,
-    fold_seed: int = 0,
-    atmospheres: str = "auto",
-) -> Context:
-    """Build (once per process) the scenario context of a preset; a preset
-    with `perturbations` (`ScenePerturbations`) repeats each lamp's scenes
-    under them (`perturbed_scenes`; `Context.scene_kind` says which is
-    which, `config["perturbations"]` records the settings)."""
-    if preset not in PRESETS:
-        raise ValueError(
-            f"Unknown scenario preset {preset!r}; expected one of {list(PRESETS)}."
-        )
-    kw = dict(PRESETS[preset])
-    perturbations = kw.pop("perturbations", None)
-    over, noisy, level = parse_noise(noise)
-    kw.update(over)
-    if atmospheres == "auto":
-        atms = ATMOSPHERES_6S if atmosphere.tables_available() else ("none",)
-    elif atmospheres == "6s":
-        atmosphere.require_tables()
-        atms = ATMOSPHERES_6S
-    elif atmospheres == "none":
-        atms = ("none",)
-    else:
-        raise ValueError(
-            f"atmospheres must be 'auto', '6s' or 'none', got {atmospheres!r}."
-        )
-    scen = build_scenarios(scored_only=True, atmospheres=atms, **kw)
-    lib = library().select(scored_only=True)
-    if tuple(lib.ids) != scen.lamp_ids:
-        raise RuntimeError("scenario lamps and library order differ")
-    truth, valid = lamp_truth(lib.values, lib.wavelength_nm)
-    classes = np.asarray([r.level2 for r in lib.records], dtype=object)
-    if perturbations is None:
-        toa = scenario_spectra(scen)
-        kind = np.zeros(toa.shape[:2], int)
-    else:
-        lamps = library_lamps(np.asarray(scen.factors.wavelength_nm), scored=True)
-        if lamps.ids != scen.lamp_ids:
-            raise RuntimeError("scenario lamps and the inversion's lamps differ")
-        toa, kind = perturbed_scenes(scen, lamps, perturbations)
-    table = LampTable(
-        np.repeat(np.arange(len(classes)), toa.shape[1]), classes, truth, valid
-    )
-    splits = tuple(
-        nested_lamp_splits(classes, n_outer=N_OUTER, n_inner=N_INNER, seed=fold_seed)
-    )
-    config = {
-        "preset": preset,
-        "scenarios": scen.config,
-        "noise": noise,
-        "n_lamps": len(classes),
-        "scenes_per_lamp": int(toa.shape[1]),
-        "perturbations": None if perturbations is None else perturbations.to_dict(),
-        "fold_seed": fold_seed,
-        "n_outer": N_OUTER,
-        "n_inner": N_INNER,
-        "atmospheres": [a if isinstance(a, str) else list(a) for a in atms],
-    }
-    if perturbations is not None:
-        counts = np.bincount(kind.ravel(), minlength=len(KINDS))
-        config["clean_scenes_per_lamp"] = int(counts[0]) // len(classes)
-        config["rows_per_kind"] = {
-            k: int(n) for k, n in zip(KINDS, counts, strict=True) if n
-        }
-        config["scene_layout"] = (
-            "surface x copy x atmosphere x Moon x class per lamp, copy 0 clean"
-        )
-    return Context(
-        preset,
-        toa,
-        np.asarray(scen.factors.wavelength_nm),
-        table,
-        scen.lamp_ids,
-        splits,
-        config,
-        noisy,
-        level,
-        kind,
-    )
+from ._problem import Space, jitted_losses, make_problem
 
 
 def task_id(task: dict) -> str:

@@ -1,0 +1,191 @@
+"""The report's sections of the studies after the band search: lamp-type
+classification, radiometry, spatial sampling, overlapping lamp types and
+the inversion estimator's interval coverage, each read only from its
+folder of `results/` (a MISSING box when the study has not run).
+"""
+
+from ._experiments import Ctx
+from ._html import esc, table
+from ._source import missing_box, pointer
+
+
+def classification(ctx: Ctx) -> str:
+    src = ctx.src
+    box = ctx.need("classify")
+    if box:
+        return box
+    K = "classify/summary.json"
+    out = [
+        "<p>The classification experiment searches its own band set (nested "
+        "lamp-grouped CV); the confusion matrices are for that set (n = "
+        + src.num(K, "/chosen_n_bands") + "), nested level-2 macro F1 "
+        + src.num(K, "/recommended/bands/level2_macro_f1_nested", digits=2) + ".</p>"
+    ]
+    for level in (2, 1):
+        rel = f"classify/confusion_level{level}.csv"
+        if not src.exists(rel):
+            out.append(missing_box(f"<code>results/{rel}</code>", "make classify"))
+            continue
+        data = src.load(rel)
+        cols = list(data[0])
+        out.append(table(
+            [esc(c) for c in cols],
+            [[esc(r[cols[0]])] + [src.num(rel, f"/{i}/{c}") for c in cols[1:]]
+             for i, r in enumerate(data)],
+            caption=f"Confusion matrix, level {level} (rows: true class; counts of "
+            "scenes)",
+        ))
+    out.append(src.image("classify/confusion_level2.png", "Level-2 confusion matrix"))
+    out.append(src.image("classify/f1_vs_band_count.png",
+                         "Classification F1 vs band count"))
+    return "".join(out)
+
+
+def radiometry(ctx: Ctx) -> str:
+    src = ctx.src
+    box = ctx.need("radiometry")
+    if box:
+        return box
+    S = "radiometry/summary.json"
+    L = "radiometry/limits.csv"
+    out = [f"<p>Limit rule: {src.text(S, '/rule_text')}</p>"]
+    rows = []
+    for i, r in enumerate(src.load(L)):
+        rows.append([
+            esc(r["band_set"]), esc(r["band"]),
+            src.num(L, f"/{i}/detection_limit_w_m2_sr_nm"),
+            src.num(L, f"/{i}/saturation_w_m2_sr_nm"),
+            src.num(L, f"/{i}/snr_at_limit", digits=2),
+            esc(r["limited_by"]),
+        ])
+    out.append(table(
+        ["band set", "band", "detection limit [W m-2 sr-1 nm-1]",
+         "saturation [W m-2 sr-1 nm-1]", "SNR at limit", "limit set by"],
+        rows, caption="Detection limits and saturation, every band set",
+    ))
+    B = "radiometry/bit_depth.csv"
+    if src.exists(B):
+        brow = [
+            [esc(r["label"]), src.num(B, f"/{i}/LER_mae"), src.num(B, f"/{i}/G_mae"),
+             src.num(B, f"/{i}/CCT_mae"), src.num(B, f"/{i}/macro_f1", digits=2)]
+            for i, r in enumerate(src.load(B))
+        ]
+        out.append(table(["quantisation", "LER MAE [lm/W]", "G MAE", "CCT MAE [K]",
+                          "level-2 macro F1"], brow, caption="Bit depth"))
+    out.append(src.image(
+        "radiometry/histograms/ours.png",
+        "Radiance histograms of the recommended bands, with detection limit, "
+        "saturation, dim-scene requirement and night-sky background drawn in",
+    ))
+    for name in ("viirs-dnb", "sdgsat-1", "nightsat"):
+        rel = f"radiometry/histograms/{name}.png"
+        if src.exists(rel):
+            out.append(src.image(rel, f"Radiance histograms, {name}", width="80%"))
+    return "".join(out)
+
+
+def spatial(ctx: Ctx) -> str:
+    src = ctx.src
+    box = ctx.need("spatial")
+    if box:
+        return box
+    S = "spatial/summary.json"
+    summ = src.load(S)
+    gsds = [str(int(g)) if float(g).is_integer() else str(g)
+            for g in summ["config"]["gsds_m"]]
+    rows = []
+    for name, v in summ["gsd_needed_m"].items():
+        p = pointer("gsd_needed_m", name)
+        rows.append(
+            [esc(name)]
+            + [src.num(S, p + pointer("f1_by_gsd", g), digits=2)
+               if g in v["f1_by_gsd"] else "n/a" for g in gsds]
+            + [src.num(S, p + "/coarsest_gsd_m") if v["coarsest_gsd_m"] is not None
+               else "none"]
+        )
+    out = [
+        f"<p>Thesis: {src.text(S, '/thesis')}. Assumptions: "
+        + esc("; ".join(summ.get("assumptions", []))) + ".</p>",
+        table(["scene"] + [f"F1 at {g} m" for g in gsds] + ["coarsest GSD [m]"],
+              rows, caption="Single-lamp detection F1 vs GSD"),
+        src.image("spatial/f1_by_gsd.png", "Detection F1 vs GSD"),
+    ]
+    for scene in ("single-sided", "staggered"):
+        for g in ("2m", "10m"):
+            rel = f"spatial/images/{scene}_gsd{g}.png"
+            if src.exists(rel):
+                out.append(src.image(rel, f"Rendered scene {scene} at GSD {g}",
+                                     width="70%"))
+    out.append(src.image("spatial/cross_section_across.png",
+                         "Cross-section across the road with the DoG response",
+                         width="80%"))
+    return "".join(out)
+
+
+def overlap(ctx: Ctx) -> str:
+    src = ctx.src
+    box = ctx.need("overlap")
+    if box:
+        return box
+    O = "spatial/overlap.json"
+    rows = []
+    for i, _ in enumerate(src.get(O, "/rows")):
+        p = f"/rows/{i}"
+        rows.append([
+            src.num(O, p + "/gsd_m"), src.num(O, p + "/n_lit"),
+            src.num(O, p + "/mixed_fraction", digits=2),
+            src.num(O, p + "/f1_pure", digits=2), src.num(O, p + "/f1_mixed", digits=2),
+            src.num(O, p + "/macro_f1", digits=2),
+        ])
+    return (
+        f"<p>Bands: {src.text(O, '/bands')}.</p>"
+        + table(["GSD [m]", "lit pixels", "mixed fraction", "F1 pure pixels",
+                 "F1 mixed pixels", "macro F1"], rows,
+                caption="Lamp type where two types overlap (mixed-led-hps layout)")
+        + src.image("spatial/overlap.png", "Lamp-type F1 with overlapping types")
+    )
+
+
+def _find_coverage(obj, path=()):
+    """(pointer tokens, value) of every number under a key with 'coverage'."""
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            if "coverage" in str(k).lower() and (
+                v is None or (isinstance(v, int | float) and not isinstance(v, bool))
+            ):
+                yield (*path, k), v  # None: not estimable, shown as n/a
+            else:
+                yield from _find_coverage(v, (*path, k))
+    elif isinstance(obj, list):
+        for i, v in enumerate(obj):
+            yield from _find_coverage(v, (*path, i))
+
+
+def inversion(ctx: Ctx) -> str:
+    src = ctx.src
+    box = ctx.need("estimate")
+    if box:
+        return box
+    folder = src.path("estimate")
+    rows = []
+    for f in sorted(folder.glob("*.json")):
+        rel = f"estimate/{f.name}"
+        if f.name == "manifest.json":
+            continue
+        for toks, _ in _find_coverage(src.load(rel)):
+            rows.append([src.link(rel), esc("/".join(map(str, toks))),
+                         src.num(rel, pointer(*toks), digits=3)])
+    out = []
+    if rows:
+        out.append(table(["file", "field", "coverage"], rows,
+                         caption="Interval coverage (fraction of true values "
+                         "inside the stated intervals)"))
+    else:
+        out.append(missing_box("an interval-coverage number in results/estimate/*.json",
+                               "the inversion results carry no field named "
+                               "'coverage'"))
+        ctx.missing.append("estimate (coverage)")
+    figs = sorted(folder.glob("*.png"))
+    for f in figs:
+        out.append(src.image(f"estimate/{f.name}", f.stem.replace("_", " ")))
+    return "".join(out)
