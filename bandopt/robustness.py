@@ -370,8 +370,8 @@ def without_class(inv: "inv_mod.Inversion", level2: str) -> "inv_mod.Inversion":
     """`inv` without every prior entry of level-2 class `level2`: its
     measured lamps, their blends and shifted copies (`Inversion.restricted`;
     removed, not given zero weight, which would leave the misfit and so the
-    `unexplained` flag as if the class were known: the rule until
-    2026-11-27). The band-error model and intervals are the fit's; the
+    `unexplained` flag as if the class were known). The band-error model and
+    intervals are the fit's; the
     `unexplained` test's inner folds lose the class too (their priors drop
     it, their held-out rows of it are dropped), as a fit without it would."""
     prior = inv.prior

@@ -18,12 +18,12 @@ UNEXPLAINED_QUANTILE = 0.95
 (`Inversion.known_type_p_value`, `Vovk2015`, class-conditional) is below
 1 - 0.95: its misfit at `FLAG_NOISE` under each inner fold's prior ranks
 above the 95th percentile of that fold's held-out lamps of the type it is
-called. The usual 5 % level of a test; not chosen on any score. Until
-2026-11-27 the test compared the final prior's misfit with a threshold set on
-the inner folds' misfits (the pooled 95th percentile, still
-`Inversion.threshold`): the final prior holds more lamps, explains every
-pixel better and so flagged far fewer than 5 % of new lamps of known types
-and few of types it lacks."""
+called. The usual 5 % level of a test; not chosen on any score. The final
+prior's own misfit is not compared with a threshold from the inner folds
+(the pooled 95th percentile, kept as `Inversion.threshold` for fits without
+inner folds): it holds more lamps than the inner priors and explains every
+pixel better, so such a threshold flags far fewer than 5 % of new lamps of
+known types and few of the types it lacks."""
 
 
 FLAG_NOISE = (0.003, 1e-3)

@@ -17,12 +17,12 @@ Hungarian algorithm on distance, pairs farther apart than
 `match_radius_m = MIN_MATCH_RADIUS_M + GSD / √2` do not count: a lamp is seen
 through its light pool, whose brightest part (the kerb or sidewalk beside the
 pole) lies up to `MIN_MATCH_RADIUS_M` from the pole, and a detection can only be
-placed at a pixel centre, up to half a pixel diagonal from where the pool peaks.
-(Until 2026-11 the radius was `max(GSD, 5 m)`, which at a 5 m GSD was shorter
-than pool offset plus pixel quantisation: every lamp of the shipped layouts was
-missed and counted as two false detections.) At GSDs of 5 m and finer the pool on
-the far side of the road is resolved as a second peak and counts as a false
-detection: precision there is about 0.5 for single-sided rows. Precision =
+placed at a pixel centre, up to half a pixel diagonal from where the pool peaks
+(a radius of `max(GSD, 5 m)` is shorter than the two together at a 5 m GSD
+and misses every lamp of the shipped layouts there). At GSDs of 5 m and finer
+the pool on the far side of the road is resolved as a second peak and counts
+as a false detection: precision there is about 0.5 for single-sided rows.
+Precision =
 TP / detections, recall = TP / lamps, F1 their harmonic mean (0 when
 undefined). Lamps at the same position (a central twin) are one target.
 """
