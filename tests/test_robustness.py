@@ -57,7 +57,7 @@ def test_records_have_their_fields_and_are_paired(run):
     lamps = {
         lab: [r["lamp"] for r in records if r["perturbation"] == lab] for lab in labels
     }
-    ids = rb.inv_mod.context_setup(part.ctx)[0].ids
+    ids = inv_mod.context_setup(part.ctx)[0].ids
     assert all(v == [ids[i] for i in part.test] for v in lamps.values())
     for r in records:
         assert {"partition", "band_set", "kind", "value", "lamp", "level1", "level2",
@@ -86,7 +86,7 @@ def test_clean_rows_and_their_scenes_are_the_contexts(run):
     """The perturbed rows' path (spectra lit under the context's scenes) gives
     the context's own TOA for unperturbed spectra: the pairing is exact."""
     part = rb.partition(STUDY, 0)
-    lamps = rb.inv_mod.context_setup(part.ctx)[0]
+    lamps = inv_mod.context_setup(part.ctx)[0]
     toa = rb.scene_spectra(part.ctx, lamps.spectra[part.test])
     np.testing.assert_allclose(toa, part.ctx.toa[part.test], rtol=1e-6)
 

@@ -1,36 +1,5 @@
-"""Robustness of the shipped estimate to what real spectra hold.
-
-The library's lamps are measured with care; a user's lamp, or a field
-campaign's, comes with background light, spectrometer noise, a coarser slit,
-a wavelength-calibration error, a spectrum cut short and extended, another
-lamp in the same pixel, or a lamp type the prior lacks. This study asks how
-much each costs the estimator `bandopt evaluate` ships
-(`evaluator.InversionConfig` defaults, surface unknown, the Moon told):
-
-1. per lamp partition (a `search.Context` built with fold seed `p`, its outer
-   fold `RobustnessStudy.fold` held out, lamp-grouped), the inversion is
-   fitted once per band set on the training lamps;
-2. each held-out measured lamp's spectrum is perturbed (`bandopt.perturb`),
-   lit under the context's own scenes (`scene.ScenarioSet.with_lamps`) and
-   measured with the band set under the context's noise rule
-   (`Context.radiance_of`); the clean spectrum goes the same way, so every
-   perturbed row is paired with the clean one on the same lamps and scenes;
-3. "left out of the prior" perturbs the prior instead: each held-out lamp is
-   scored by the same fit with every prior entry of its own level-2 class
-   masked (`without_class`: prior weight 0; the band-error model, intervals
-   and threshold stay those of the full fit, so this is the cheap stand-in
-   for a refit without the class, `inversion.leave_one_class_out`).
-
-Truth: a pixel's LER, G and CCT are those of the spectrum its radiance comes
-from (the perturbed one: background, noise and a second lamp are part of what
-the pixel holds); its types are the lamp's own (the majority lamp in a
-mixture). Records also keep the clean spectrum's truth.
-
-`run_partition` scores one (partition, band set) unit; `summarise` turns
-records into rows (class-balanced means per partition, mean ± SD over
-partitions, ECE of the level-1 probabilities, paired differences against
-clean).
-"""
+"""The robustness study: perturbations, partitions, one unit's records and
+the resumable run (`bandopt.robustness`)."""
 
 import dataclasses
 import gzip
@@ -40,17 +9,15 @@ from pathlib import Path
 
 import numpy as np
 
-from . import inversion as inv_mod, perturb
-from .calibration import expected_calibration_error, reliability_curve
-from .datasets.technology import extend_user_spectrum
-from .estimate import METRICS, lamp_truth
-from .evaluator import InversionConfig, fit_on_context
-from .folds import class_balanced_weights
-from .forward import dense_spectra
-from .names import validate_method
-from .results import RESULTS_DIR
-from .search import get_context
-from .sensor.reference import resolve_band_set
+from .. import inversion as inv_mod, perturb
+from ..datasets.technology import extend_user_spectrum
+from ..estimate import METRICS, lamp_truth
+from ..evaluator import InversionConfig, fit_on_context
+from ..forward import dense_spectra
+from ..names import validate_method
+from ..results import RESULTS_DIR
+from ..search import get_context
+from ..sensor.reference import resolve_band_set
 
 
 KINDS = (
@@ -618,186 +585,3 @@ def run_study(
             records += recs
             log(f"partition {p}, {label}: done ({len(recs)} records)")
     return records
-
-
-COLUMNS = (
-    "level1_correct",
-    "level2_correct",
-    "LER",
-    "G",
-    "CCT",
-    "LER_covered",
-    "G_covered",
-    "CCT_covered",
-    "unexplained",
-)
-"""Columns of `inversion.summarise` a row reports (class-balanced means over
-held-out lamps per partition; MAE for LER [lm/W], G [1], CCT [K])."""
-
-WIDTH_COLUMNS = tuple(f"{m}_width_median" for m in METRICS)
-"""Median 90 % interval width per metric: per partition the class-balanced
-weighted median over lamps of each lamp's median width. [lm/W], [1], [K]"""
-
-PAIRED = (*COLUMNS, *WIDTH_COLUMNS, "ECE", "ECE_answered", "level1_answered")
-"""Columns whose perturbed-minus-clean difference is paired by partition."""
-
-
-def _weights(recs) -> np.ndarray:
-    return class_balanced_weights(np.asarray([r["level2"] for r in recs], object))
-
-
-def partition_ece(recs, answered: bool = False) -> float | None:
-    """ECE of the level-1 probabilities (top-class confidence) over every
-    pixel of `recs`, each pixel weighted by its lamp's class-balanced weight
-    over its rows (`calibration.expected_calibration_error`). `answered`:
-    only the pixels not flagged `unexplained` (a flagged pixel is given no
-    type, so its probabilities are no answer); None when none is (or the
-    records predate the per-pixel flags)."""
-    w = _weights(recs)
-    conf = np.concatenate([r["level1_confidence"] for r in recs])
-    right = np.concatenate([r["level1_top_right"] for r in recs]).astype(bool)
-    pix = np.concatenate(
-        [np.full(r["rows"], wi / r["rows"]) for r, wi in zip(recs, w, strict=True)]
-    )
-    if answered:
-        if any("level1_flagged" not in r for r in recs):
-            return None
-        keep = ~np.concatenate([r["level1_flagged"] for r in recs]).astype(bool)
-        if not keep.any():
-            return None
-        conf, right, pix = conf[keep], right[keep], pix[keep]
-    return expected_calibration_error(conf, right, pix)
-
-
-def partition_answered(recs) -> float | None:
-    """Class-balanced mean over lamps of level-1 right among the pixels not
-    flagged `unexplained` (lamps with every pixel flagged left out; None:
-    no lamp answered)."""
-    have = [r for r in recs if r.get("level1_answered_correct") is not None]
-    if not have:
-        return None
-    w = _weights(have)
-    vals = np.asarray([r["level1_answered_correct"] for r in have], float)
-    return float(np.sum(w * vals) / w.sum())
-
-
-def partition_width(recs, col: str) -> float | None:
-    """Class-balanced weighted median over lamps of `col` (None: no lamp has
-    it)."""
-    have = [r for r in recs if r.get(col) is not None]
-    if not have:
-        return None
-    vals = np.asarray([r[col] for r in have], float)
-    return float(inv_mod.weighted_quantile(vals, _weights(have)[None], [0.5])[0, 0])
-
-
-def _mean_sd(per: list) -> tuple:
-    per = [x for x in per if x is not None]
-    if not per:
-        return None, None
-    return float(np.mean(per)), (float(np.std(per, ddof=1)) if len(per) > 1 else None)
-
-
-def reliability(recs) -> dict:
-    """Pooled reliability curve (`calibration.reliability_curve`) of `recs`'
-    level-1 confidences, class-balanced pixel weights per partition, each
-    partition the same weight: bin edges, mean confidence, accuracy, share."""
-    conf, right, pix = [], [], []
-    parts = sorted({r["partition"] for r in recs})
-    for p in parts:
-        rp = [r for r in recs if r["partition"] == p]
-        for r, wi in zip(rp, _weights(rp), strict=True):
-            conf.append(r["level1_confidence"])
-            right.append(r["level1_top_right"])
-            pix.append(np.full(r["rows"], wi / r["rows"] / len(parts)))
-    edges, c, a, share = reliability_curve(
-        np.concatenate(conf), np.concatenate(right).astype(bool), np.concatenate(pix)
-    )
-
-    def listed(x):  # an empty bin's NaN is null in JSON
-        return [float(v) if np.isfinite(v) else None for v in x]
-
-    return {
-        "edges": edges.tolist(),
-        "confidence": listed(c),
-        "accuracy": listed(a),
-        "share": share.tolist(),
-    }
-
-
-def summarise(records: Sequence[dict], study: RobustnessStudy) -> dict:
-    """Rows per (band set, perturbation) in the study's order: `COLUMNS` from
-    `inversion.summarise`, `WIDTH_COLUMNS` and `ECE` per partition, each with
-    mean, SD and per-partition values; paired differences against "clean"
-    (same band set, partition by partition: mean and SD); pooled reliability
-    of clean and perturbed level-1 probabilities per band set (JSON-ready,
-    no NaN: an empty reliability bin is None)."""
-    base = {
-        (r["band_set"], r["perturbation"]): r
-        for r in inv_mod.summarise(records, keys=("band_set", "perturbation"))
-    }
-    rows = []
-    for b, _ in study.band_sets:
-        for pert in study.perturbations:
-            key = (b, pert.label)
-            if key not in base:
-                continue
-            src = base[key]
-            row = {
-                "band_set": b,
-                "perturbation": pert.label,
-                "kind": pert.kind,
-                "value": pert.value,
-                "partitions": src["partitions"],
-                "lamps_per_partition": src["lamps_per_partition"],
-                "out_of_range": src["out_of_range"],
-            }
-            for col in COLUMNS:
-                for suffix in ("", "_sd", "_per_partition"):
-                    row[col + suffix] = src.get(col + suffix)
-            recs = [r for r in records if (r["band_set"], r["perturbation"]) == key]
-            parts = sorted({r["partition"] for r in recs})
-            by_p = [[r for r in recs if r["partition"] == p] for p in parts]
-            extra = {
-                "ECE": [partition_ece(rp) for rp in by_p],
-                "ECE_answered": [partition_ece(rp, answered=True) for rp in by_p],
-                "level1_answered": [partition_answered(rp) for rp in by_p],
-            }
-            for col in WIDTH_COLUMNS:
-                extra[col] = [partition_width(rp, col) for rp in by_p]
-            for col, per in extra.items():
-                row[col], row[col + "_sd"] = _mean_sd(per)
-                row[col + "_per_partition"] = per
-            rows.append(row)
-    paired = []
-    by = {(r["band_set"], r["perturbation"]): r for r in rows}
-    for r in rows:
-        clean = by.get((r["band_set"], "clean"))
-        if r["perturbation"] == "clean" or clean is None:
-            continue
-        d = {"band_set": r["band_set"], "perturbation": r["perturbation"]}
-        for col in PAIRED:
-            a, c = r.get(col + "_per_partition"), clean.get(col + "_per_partition")
-            if not a or not c or len(a) != len(c) or None in a or None in c:
-                continue
-            diff = np.asarray(a, float) - np.asarray(c, float)
-            d[col + "_diff"] = float(diff.mean())
-            d[col + "_diff_sd"] = float(diff.std(ddof=1)) if diff.size > 1 else None
-        paired.append(d)
-    rel = {}
-    for b, _ in study.band_sets:
-        clean = [r for r in records if r["band_set"] == b and r["kind"] == "clean"]
-        pert = [
-            r for r in records if r["band_set"] == b and r["kind"] not in ("clean",)
-        ]
-        if clean and pert:
-            rel[b] = {"clean": reliability(clean), "perturbed": reliability(pert)}
-    return {
-        "rows": rows,
-        "paired": paired,
-        "reliability": rel,
-        "partitions": len({r["partition"] for r in records}),
-        "fold": study.fold,
-        "perturbations": [p.label for p in study.perturbations],
-        "band_sets": [b for b, _ in study.band_sets],
-    }
