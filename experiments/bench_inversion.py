@@ -14,8 +14,10 @@ the default of `bandopt evaluate`), each with the Moon fitted and told (as
 `bandopt evaluate` tells it), and that last one with each metric at its own
 `σ_rel` (`metric_sigma`, `bandopt evaluate`'s default) against one `σ_rel`,
 and the whole prior of `bandopt evaluate` (also the library's Planck
-spectra and shifted copies of its direct-emission LEDs, `--planck on`,
-`--peak-shifts on`); and the library-free direct estimate (`bandopt
+spectra, blends of two lamp types and shifted copies of its direct-emission
+LEDs, `--planck on`, `--cross-mixtures 3`, `--peak-shifts on`) without and
+with its `unexplained` test (each pixel also scored under every inner fold's
+prior); and the library-free direct estimate (`bandopt
 evaluate --estimator direct`, 26 contiguous bands, surface known) against
 the ridge on the same bands and pixels. Compilation is excluded (a warm-up
 call first).
@@ -123,6 +125,7 @@ def main(argv=None) -> int:
     full = (
         full
         + inv_mod.mixture_lamps(full)
+        + inv_mod.cross_mixture_lamps(full, inv_mod.CROSS_MIX_PAIRS)
         + inv_mod.shifted_lamps(full, ctx.wavelength_nm)
     )
     built = inv_mod.build_inversion(
@@ -132,6 +135,12 @@ def main(argv=None) -> int:
         inv_metric, prior=built.prior, design=built.design
     )
     t_default = _best(lambda: inv_default.predict(pix, moon=moon))
+    # and its `unexplained` test: each pixel's misfit under every inner fold's
+    # prior too (`Inversion.known_type_p_value`; the folds of the fit above)
+    inv_flagged = dataclasses.replace(
+        inv_default, flag_folds=inv.flag_folds, flag_noise=inv.flag_noise
+    )
+    t_flagged = _best(lambda: inv_flagged.predict(pix, moon=moon))
     # the library-free direct estimate (`bandopt evaluate --estimator direct`)
     # needs contiguous bands: 26 x 20 nm, surface known, against the ridge on
     # the same bands and pixels (its JSON-ready rows, as evaluate makes them)
@@ -174,9 +183,13 @@ def main(argv=None) -> int:
         "default_prior_lamps": len(inv_default.prior.ids),
         "inversion_evaluate_default_s_per_pixel": t_default / n,
         "ratio_evaluate_default_to_ridge": t_default / t_ridge,
-        "evaluate_configuration": "inversion_evaluate_default_s_per_pixel "
-        "(blends, Planck spectra and shifted direct LEDs in the prior, the Moon "
-        "told, each metric at its own sigma_rel)",
+        "inversion_evaluate_default_flag_s_per_pixel": t_flagged / n,
+        "ratio_flag_to_no_flag": t_flagged / t_default,
+        "flag_inner_folds": len(inv.flag_folds),
+        "evaluate_configuration": "inversion_evaluate_default_flag_s_per_pixel "
+        "(same-class and cross-type blends, Planck spectra and shifted direct "
+        "LEDs in the prior, the Moon told, each metric at its own sigma_rel, "
+        "and the cross-conformal unexplained test over the inner folds)",
         "direct_bands": c26.name,
         "direct_s_per_pixel": t_direct / n,
         "ridge_contiguous_s_per_pixel": t_ridge26 / n,
