@@ -642,25 +642,19 @@ def _recommendation(summary, coverage) -> dict:
     }
 
 
+
 def _by_class(recs):
+    """Per held-out class: lamp count and the mean of each of the summary's
+    columns a held-out class has (`inversion.SUMMARY_COLUMNS` but level-2,
+    never in the prior, and CCT in mired)."""
+    from bandopt.inversion import SUMMARY_COLUMNS  # JAX only when summarising
+
+    columns = [c for c in SUMMARY_COLUMNS if c not in ("CCT_mired", "level2_correct")]
     out = {}
     for c in sorted({r["held_out_class"] for r in recs}):
         rs = [r for r in recs if r["held_out_class"] == c]
         row = {"lamps": len(rs), "level1_in_prior": rs[0]["level1_in_prior"]}
-        for k in (
-            "LER",
-            "G",
-            "CCT",
-            "LER_covered",
-            "G_covered",
-            "CCT_covered",
-            "LER_width",
-            "G_width",
-            "CCT_width",
-            "CCT_width_mired",
-            "level1_correct",
-            "unexplained",
-        ):
+        for k in columns:
             v = [r[k] for r in rs if r.get(k) is not None]
             row[k] = float(np.mean(v)) if v else None
         row["out_of_range"] = int(sum(r["out_of_range"] for r in rs))
