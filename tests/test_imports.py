@@ -202,7 +202,9 @@ LAYERS = [
     # the inversion is an estimator the search, classification and evaluation use
     ("bandopt.inversion", "bandopt.search"),
     ("bandopt.inversion", "bandopt.classify"),
-    ("bandopt.inversion", "bandopt.evaluator"),
+    ("bandopt.inversion", "bandopt.estimators"),
+    ("bandopt.classify", "bandopt.estimators"),
+    ("bandopt.search", "bandopt.estimators"),
 ]
 
 INVERSION_FLOORS = (

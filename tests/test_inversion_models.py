@@ -420,7 +420,7 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
             # one of your own lamps in the prior (`--prior-lamps hps=my.csv`)
             own_lamps=(["my.csv"], own_hps, ["hps"]) if n else None,
         )
-        _, _, desc = _cmd_evaluate._fit(args, ctx, FIVE, "unknown")
+        desc = _cmd_evaluate._fit(args, ctx, FIVE, "unknown").description
         want = inv_mod.INTERVAL_OFFSET_GRID if unit == "narrowest" else (0.0,)
         assert seen["interval_offsets"] == want
         if unit == "narrowest":  # the fake fit chose the grid's last three
@@ -475,6 +475,7 @@ def test_evaluate_json_says_how_many_modelled_lamps(
     import bandopt.search
     from bandopt.cli import _cmd_evaluate, main
     from bandopt.cli._cmd_bands import _load
+    from bandopt.estimators import FittedInversion
 
     lamps, *_ = case
     basis = inv_mod._basis(GRID)
@@ -485,7 +486,7 @@ def test_evaluate_json_says_how_many_modelled_lamps(
     def fake_fit(args, ctx, bands, mode):
         seen.append(args.modelled_per_class)
         mixtures.append(args.mixtures)
-        return inv, basis, "stub"
+        return FittedInversion(inv, _cmd_evaluate._config(args), basis, "stub")
 
     mixtures = []
 

@@ -9,7 +9,7 @@ import pytest
 
 from bandopt import inversion as inv_mod, robustness as rb
 from bandopt.calibration import expected_calibration_error
-from bandopt.evaluator import InversionConfig, fit_on_context
+from bandopt.estimators import InversionConfig, fit_on_context
 from bandopt.folds import class_balanced_weights
 from bandopt.sensor.reference import resolve_band_set
 

@@ -377,169 +377,88 @@ def _surface(args, grid):
     return refl[0], name, "class", name
 
 
-def _fit(args, ctx, bands, mode):
-    """The chosen estimator trained on every scored library lamp (inner folds:
-    the context's outer splits). Returns (predict(rad, surface) -> (estimate,
-    interval, extra rows or None), description)."""
-    import numpy as np
+OPTIONS = {
+    # dest: (flag, default, configuration field, why the option is refused)
+    "modelled_per_class": ("--modelled-per-class", 0, "modelled_per_class",
+                           "modelled lamps go into the prior of"),
+    "mixtures": ("--mixtures", MIXTURES_DEFAULT, "mixtures",
+                 "blends go into the prior of"),
+    "cross_mixtures": ("--cross-mixtures", CROSS_MIXTURES_DEFAULT, "cross_mixtures",
+                       "blends go into the prior of"),
+    "sigma": ("--sigma", "per-metric", "sigma_rule", "for"),
+    "interval_unit": ("--interval-unit", "narrowest", "interval_offsets", "for"),
+    "planck": ("--planck", PLANCK_DEFAULT, "planck",
+               "the Planck spectra go into the prior of"),
+    "tm30": ("--tm30", TM30_DEFAULT, "tm30", "the TM-30 lamps go into the prior of"),
+    "peak_shifts": ("--peak-shifts", PEAK_SHIFTS_DEFAULT, "peak_shifts_nm",
+                    "shifted LEDs go into the prior of"),
+    "intervals": ("--intervals", "any-type", "calibration", "for"),
+}  # fmt: skip
+"""The estimator options of `bandopt evaluate`: each sets one field of an
+estimator's configuration (`bandopt.estimators`); given (not at its
+default) for an estimator without that field, it is refused."""
 
+
+def check_options(args) -> None:
+    """Refuses, before anything is read or trained, an option the chosen
+    estimator's configuration lacks, naming the estimators that have it."""
+    from ..estimators import ESTIMATORS, options_of, owners_of
+
+    est = args.estimator
+    for dest, (flag, default, field, why) in OPTIONS.items():
+        value = getattr(args, dest)
+        if value != default and field not in options_of(est):
+            raise ValueError(
+                f"{flag} {value}: {why} --estimator "
+                f"{', '.join(owners_of(field))} only (got --estimator {est})."
+            )
+    if args.prior_lamps and not ESTIMATORS[est].own_lamps:
+        owners = [n for n, c in ESTIMATORS.items() if c.own_lamps]
+        raise ValueError(
+            f"--prior-lamps: your lamps go into the prior of --estimator "
+            f"{', '.join(owners)} only (got --estimator {est})."
+        )
+
+
+def _config(args):
+    """The chosen estimator's configuration from the options."""
     from .. import inversion as inv_mod
-    from ..direct import fit_direct
-    from ..estimate import fit_estimator, fit_kernel_estimator
-    from ..novelty import fit_ratio_novelty
+    from ..estimators import InversionConfig, configure
 
-    if args.estimator == "direct":
-        model = fit_direct(ctx, bands, mode)
-        half = model.halfwidth
-        desc = (
-            "library-free direct estimate (bandopt.direct): the band values read "
-            "as a spectrum constant over each band once the surface is divided "
-            + (
-                "out (surface unknown: divided by the library's mean reflectance; "
-                "expect large errors, results/estimate_bands)"
-                if mode == "unknown"
-                else f"out (surface {mode})"
-            )
-            + "; no lamp trains it; 90 % intervals: estimate +- the class-balanced "
-            f"90 % quantile of the absolute error of the {model.calibration['lamps']} "
-            "scored library lamps on the search scenes with the same surface "
-            f"knowledge (LER {half[0]:.3g} lm/W, G {half[1]:.3g}, CCT "
-            f"{half[2]:.3g} mired)"
-        )
-        return model, None, desc  # computes its own radiances
-    all_lamps = np.arange(ctx.table.n_lamps)
-    splits = [(s.train, s.test) for s in ctx.splits]
-    rad = ctx.radiance(bands)
-    if args.estimator == "inversion":
-        from ..evaluator import InversionConfig, fit_on_context  # start-up time
-
-        grid = ctx.wavelength_nm
-        basis = inv_mod.surface_basis(grid)
-        config = InversionConfig(
-            mixtures=args.mixtures,
-            cross_mixtures=args.cross_mixtures,
-            peak_shifts_nm=(
-                inv_mod.PEAK_SHIFTS_NM
-                if PEAK_SHIFTS[args.peak_shifts] == "grid"
-                else PEAK_SHIFTS[args.peak_shifts]
-            ),
-            planck=args.planck == "on",
-            tm30=args.tm30 == "on",
-            sigma_rule=SIGMA_RULES[args.sigma],
-            floor_grid=(
-                inv_mod.FLOOR_GRID
-                if args.sigma == "per-metric"
-                else (inv_mod.SIGMA_FLOOR,)
-            ),
-            calibration=INTERVALS[args.intervals],
-            interval_offsets=(
-                inv_mod.INTERVAL_OFFSET_GRID
-                if INTERVAL_UNITS[args.interval_unit] == "grid"
-                else INTERVAL_UNITS[args.interval_unit]
-            ),
-            modelled_per_class=args.modelled_per_class,
-        )
-        inv = fit_on_context(
-            ctx,
-            bands,
-            config,
-            surface_mode=mode,
-            always=_with_own_lamps(None, getattr(args, "own_lamps", None), grid),
-        )
-        added = inv.diagnostics["modelled_lamps"]["added"]
-        n_model = sum(added.values())
-        n_mix = inv.diagnostics["mixtures"]["n"]
-        n_xmix = inv.diagnostics.get("cross_mixtures", {}).get("n", 0)
-        shifted = inv.diagnostics["peak_shifts"]
-        n_planck = sum(i.startswith("planck_") for i in inv.prior.ids)
-        n_tm30 = sum(i.startswith("ies_tm30_") for i in inv.prior.ids)
-        own = [i for i in inv.prior.ids if i.startswith("own:")]
-        n_nir = inv.diagnostics["nir_error"]["n"]
-        n_measured = (
-            len(inv.prior.ids)
-            - n_nir
-            - n_model
-            - n_mix
-            - n_xmix
-            - shifted["n"]
-            - n_planck
-            - n_tm30
-            - len(own)
-        )
-        prior = f"{n_measured} measured library lamps"
-        if n_tm30:
-            prior += (
-                f", {n_tm30} measured lamps of the IES TM-30-15 set (they train, "
-                "never score)"
-            )
-        if n_planck:
-            prior += (
-                f", {n_planck} modelled incandescent spectra (Planck's law; they "
-                "train, never score)"
-            )
-        if n_model:
-            prior += (
-                f" and {n_model} modelled lamps ({args.modelled_per_class} per class "
-                f"of {', '.join(added)}; bandopt.lampmodels calibrated on the "
-                "training lamps of each fit only)"
-            )
-        if n_mix:
-            prior += (
-                f", with {n_mix} pairwise blends of two measured lamps of one "
-                f"class (up to {args.mixtures} pairs per class)"
-            )
-        if n_xmix:
-            prior += (
-                f", {n_xmix} blends of two lamps of different types (10, 25 or 40 "
-                "% of the light from the second; named by the first; "
-                f"{args.cross_mixtures} pairs per pair of types)"
-            )
-        if shifted["n"]:
-            prior += (
-                f", and {shifted['n']} copies of its direct-emission LEDs shifted "
-                f"by {', '.join(f'{x:+g}' for x in shifted['shifts_nm'])} nm"
-            )
-        if n_nir:
-            prior += (
-                f", and {n_nir} copies of its lamps with modelled near-infrared "
-                "(780-900 nm) at the low and high end of that model's measured "
-                "error (bandopt.datasets.nir.extension_error)"
-            )
-        if own:
-            prior += (
-                f", and {len(own)} measured lamp{'s' if len(own) > 1 else ''} of "
-                f"yours ({', '.join(own)}; they train, never score)"
-            )
-        desc = (
-            f"physics-based inversion (bandopt.inversion), prior over {prior}, "
-            f"surface {mode}; Moon brightness told (training scenes: their own; "
-            f"your scene: moonless), not fitted; sigma_rel {_sigma_text(inv)}, 90 % "
-            + (
-                "intervals split-conformal on lamp-grouped folds (calibrated for "
-                "new lamps of the library's types)"
-                if args.intervals == "known-types"
-                else "intervals split-conformal on library classes held out in "
-                "turn (calibrated for lamp types the library lacks too)"
-            )
-            + f", in units of {_unit_text(inv)}"
-            + _probability_text(inv)
-            + _flag_text(inv)
-        )
-        return inv, basis, desc
-    fit = fit_estimator if args.estimator == "ridge" else fit_kernel_estimator
-    est = fit(rad, ctx.table, all_lamps, splits)
-    q = _conformal_halfwidth(fit, rad, ctx)
-    novelty = fit_ratio_novelty(rad, ctx.table, all_lamps, splits)
-    desc = (
-        f"{args.estimator} regression on centred log band ratios trained on "
-        f"{ctx.table.n_lamps} scored library lamps, bounded to their range; 90 % "
-        "intervals: estimate +- the class-balanced 90 % quantile of held-out "
-        "lamps' |error| (split-conformal); unexplained: band ratios farther "
-        "from every training pixel than the class-balanced "
-        f"{novelty.quantile:.0%} of held-out lamps' pixels are (bandopt.novelty), "
-        "and then no type is given"
+    if args.estimator != "inversion":
+        return configure(args.estimator)
+    return InversionConfig(
+        mixtures=args.mixtures,
+        cross_mixtures=args.cross_mixtures,
+        peak_shifts_nm=(
+            inv_mod.PEAK_SHIFTS_NM
+            if PEAK_SHIFTS[args.peak_shifts] == "grid"
+            else PEAK_SHIFTS[args.peak_shifts]
+        ),
+        planck=args.planck == "on",
+        tm30=args.tm30 == "on",
+        sigma_rule=SIGMA_RULES[args.sigma],
+        floor_grid=(
+            inv_mod.FLOOR_GRID if args.sigma == "per-metric" else (inv_mod.SIGMA_FLOOR,)
+        ),
+        calibration=INTERVALS[args.intervals],
+        interval_offsets=(
+            inv_mod.INTERVAL_OFFSET_GRID
+            if INTERVAL_UNITS[args.interval_unit] == "grid"
+            else INTERVAL_UNITS[args.interval_unit]
+        ),
+        modelled_per_class=args.modelled_per_class,
     )
-    return (est, q, novelty), None, desc
+
+
+def _fit(args, ctx, bands, mode):
+    """The chosen estimator (`bandopt.estimators`) trained on every scored
+    library lamp of `ctx` (inner folds: its outer splits), with the user's
+    own lamps where it takes them: a fitted estimator with `predict`,
+    `report` and `description`."""
+    return _config(args).fit(
+        ctx, bands, surface_mode=mode, own=getattr(args, "own_lamps", None)
+    )
 
 
 def parse_prior_lamps(entries) -> list[tuple[str, str]]:
@@ -618,162 +537,6 @@ def prior_lamp_names(paths) -> list[str]:
     ]
 
 
-def _flag_text(inv) -> str:
-    """How `unexplained` is decided, for the description."""
-    if not getattr(inv, "flag_folds", ()):
-        return "; unexplained: misfit above the inner folds' threshold"
-    return (
-        f"; unexplained: p < {inv.flag_level:g} (known_type_p_value, a "
-        "cross-conformal test: the pixel's misfit under each inner fold's prior "
-        "ranked among that fold's held-out lamps of the type it is called)"
-    )
-
-
-def _probability_text(inv) -> str:
-    """How the type probabilities were calibrated, for the description."""
-    d = inv.diagnostics.get("probabilities", {})
-    if not d.get("calibrated"):
-        return "; type probabilities: the posterior's, uncalibrated"
-    g = d["groups"]
-    known, novel = g["known_types"], g.get("left_out_types")
-    text = (
-        "; type probabilities calibrated by a temperature that grows with the "
-        f"pixel's misfit ({inv.level1_temperature:.3g} x misfit^"
-        f"{inv.temperature_slope[0]:.2f}), fitted on held-out lamps of known "
-        f"types (level-1 ECE there {known['ece_level1_after']:.2f}, "
-        f"unexplained {known['unexplained_rate']:.2f})"
-    )
-    if novel is not None:
-        text += (
-            "; on library types held out in turn: ECE "
-            f"{novel['ece_level1_after']:.2f}, unexplained "
-            f"{novel['unexplained_rate']:.2f}"
-        )
-    return text
-
-
-def _with_own_lamps(always, own, grid):
-    """`always` plus the user's lamps `own` ((names, values on GRID_1NM,
-    classes), or None: none) on `grid` (`inversion.own_lamps`)."""
-    if not own or not own[0]:
-        return always
-    from .. import inversion as inv_mod
-    from ..spectra import GRID_1NM
-
-    names, values, classes = own
-    lamps = inv_mod.own_lamps(names, values, GRID_1NM, grid, classes)
-    return lamps if always is None else always + lamps
-
-
-def _unit_text(inv) -> str:
-    """The intervals' unit as the description says it: the posterior's
-    half-width, plus each metric's offset when one was chosen."""
-    chosen = inv.diagnostics.get("interval_offset") or {}
-    if not any(chosen.values()):
-        return "the posterior's half-width"
-    parts = ", ".join(f"{m} {f:g}" for m, f in chosen.items())
-    return (
-        "the posterior's half-width plus the narrowest calibrated offset (x the "
-        f"metric's spread over the library lamps: {parts})"
-    )
-
-
-def _sigma_text(inv) -> str:
-    """The inversion's band-error model(s) for the estimator description."""
-    joint = (inv.sigma_rel, inv.sigma_floor)
-
-    def one(x) -> str:
-        return f"{x[0]:g} (floor {x[1]:g})"
-
-    if set(inv.metric_noise) == {joint}:
-        return one(joint)
-    ler, g, cct = inv.metric_noise
-    return (
-        f"LER {one(ler)}, G {one(g)}, CCT {one(cct)} (each metric's own, "
-        f"chosen on lamp-grouped folds; types and flag {one(joint)})"
-    )
-
-
-def _unit_json(model) -> dict:
-    """`"interval_unit"` of the JSON: per metric the offset added to the
-    posterior's half-width, as a fraction of the metric's spread (0: the
-    half-width alone)."""
-    chosen = model.diagnostics.get("interval_offset")
-    return dict(chosen) if chosen else {m: 0.0 for m in ("LER", "G", "CCT")}
-
-
-def _sigma_json(model, estimator: str):
-    """`"sigma_rel"` of the JSON: (σ_rel, floor) per metric and for the types,
-    or None."""
-    if estimator != "inversion":
-        return None
-    names = ("LER", "G", "CCT")
-    out = {m: list(x) for m, x in zip(names, model.metric_noise, strict=True)}
-    out["types_and_flag"] = [model.sigma_rel, model.sigma_floor]
-    return out
-
-
-def _conformal_halfwidth(fit, rad, ctx):
-    """Class-balanced 90 % quantile of |error| (model space) on held-out lamps."""
-    import numpy as np
-
-    from ..estimate import to_model_space
-    from ..folds import class_balanced_weights
-    from ..inversion import weighted_quantile
-
-    errs, wts = [], []
-    y, valid = ctx.table.scenario_truth()
-    for s in ctx.splits:
-        est = fit(rad, ctx.table, s.train, s.inner)
-        rows = np.flatnonzero(np.isin(ctx.table.lamp_of, s.test))
-        p = np.asarray(to_model_space(est.predict(rad[rows])))
-        errs.append(np.where(valid[rows], np.abs(p - y[rows]), np.nan))
-        lw = dict(
-            zip(s.test, class_balanced_weights(ctx.table.classes[s.test]), strict=True)
-        )
-        per = np.bincount(ctx.table.lamp_of)[ctx.table.lamp_of[rows]]
-        wts.append(np.array([lw[l] for l in ctx.table.lamp_of[rows]]) / per)
-    e, w = np.vstack(errs), np.concatenate(wts)
-    q = np.empty(3)
-    for m in range(3):
-        ok = ~np.isnan(e[:, m])
-        q[m] = weighted_quantile(e[ok, m], w[ok][None], (0.9,))[0, 0]
-    return q
-
-
-def _baseline_rows(est, q, novelty, rad):
-    """Bounded estimates and intervals of a regression baseline, each row
-    flagged `unexplained` where `novelty` (`novelty.RatioNovelty`) finds its
-    band ratios unlike every training pixel."""
-    import numpy as np
-
-    from ..estimate import METRICS, MIRED, MODEL_BOUNDS, to_model_space
-
-    pred = np.asarray(est.predict(rad))
-    model = np.asarray(to_model_space(pred))
-    lo = np.clip(model - q, MODEL_BOUNDS[0], MODEL_BOUNDS[1])
-    hi = np.clip(model + q, MODEL_BOUNDS[0], MODEL_BOUNDS[1])
-    flags = novelty.flags(rad)
-    rows = []
-    for i in range(pred.shape[0]):
-        iv = {}
-        for m, name in enumerate(METRICS):
-            if name == "CCT":
-                iv[name] = [float(MIRED / hi[i, m]), float(MIRED / lo[i, m])]
-            else:
-                iv[name] = [float(lo[i, m]), float(hi[i, m])]
-        rows.append(
-            {
-                "estimate": {n: float(pred[i, m]) for m, n in enumerate(METRICS)},
-                "interval90": iv,
-                "null_reasons": {},
-                "unexplained": bool(flags[i]),
-                "level1_probabilities": None,
-            }
-        )
-    return rows
-
-
 def run(args) -> int:
     import math
     import sys
@@ -782,6 +545,7 @@ def run(args) -> int:
     import numpy as np
 
     from ..estimate import METRICS, truth_with_reasons
+    from ..estimators import Surface
     from ..photometry import ler as ler_fn
     from ..scene import band_weights, class_illuminance_lx
     from ..search import get_context
@@ -793,74 +557,20 @@ def run(args) -> int:
         raise ValueError(
             f"--modelled-per-class {args.modelled_per_class}: must be >= 0."
         )
-    if args.modelled_per_class and args.estimator != "inversion":
-        raise ValueError(
-            "--modelled-per-class: modelled lamps go into the prior of "
-            f"--estimator inversion only (got --estimator {args.estimator})."
-        )
-    if args.mixtures < 0:
-        raise ValueError(f"--mixtures {args.mixtures}: must be >= 0.")
-    if args.mixtures != MIXTURES_DEFAULT and args.estimator != "inversion":
-        raise ValueError(
-            "--mixtures: blends go into the prior of --estimator inversion only "
-            f"(got --estimator {args.estimator})."
-        )
-    if args.cross_mixtures != CROSS_MIXTURES_DEFAULT and args.estimator != "inversion":
-        raise ValueError(
-            "--cross-mixtures: blends go into the prior of --estimator inversion "
-            f"only (got --estimator {args.estimator})."
-        )
-    if args.sigma != "per-metric" and args.estimator != "inversion":
-        raise ValueError(
-            f"--sigma {args.sigma}: for --estimator inversion only (got "
-            f"--estimator {args.estimator})."
-        )
-    if args.interval_unit != "narrowest" and args.estimator != "inversion":
-        raise ValueError(
-            f"--interval-unit {args.interval_unit}: for --estimator inversion only "
-            f"(got --estimator {args.estimator})."
-        )
-    if args.planck != PLANCK_DEFAULT and args.estimator != "inversion":
-        raise ValueError(
-            f"--planck {args.planck}: the Planck spectra go into the prior of "
-            f"--estimator inversion only (got --estimator {args.estimator})."
-        )
-    if args.tm30 != TM30_DEFAULT and args.estimator != "inversion":
-        raise ValueError(
-            f"--tm30 {args.tm30}: the TM-30 lamps go into the prior of "
-            f"--estimator inversion only (got --estimator {args.estimator})."
-        )
-    if args.peak_shifts != PEAK_SHIFTS_DEFAULT and args.estimator != "inversion":
-        raise ValueError(
-            f"--peak-shifts {args.peak_shifts}: shifted LEDs go into the prior of "
-            f"--estimator inversion only (got --estimator {args.estimator})."
-        )
-    if args.prior_lamps and args.estimator != "inversion":
-        raise ValueError(
-            "--prior-lamps: your lamps go into the prior of --estimator inversion "
-            f"only (got --estimator {args.estimator})."
-        )
-    if args.intervals != "any-type" and args.estimator != "inversion":
-        raise ValueError(
-            f"--intervals {args.intervals}: for --estimator inversion only (got "
-            f"--estimator {args.estimator}; its intervals are split-conformal on "
-            "lamp-grouped folds)."
-        )
+    check_options(args)
     bands, entry = _load(args.bands)
     name = entry.key if entry is not None else bands.name
-    if args.estimator == "direct":
-        from ..direct import tiling_edges
-
-        try:
-            tiling_edges(bands)  # before any lamp is read or anything trains
-        except ValueError as exc:
-            raise ValueError(f"--bands {args.bands}: {exc}") from None
-        if args.surface is None:
-            raise ValueError(
-                "--estimator direct needs --surface NAME|FILE: it divides the "
-                "surface out of the band values, and with the library's mean "
-                "reflectance instead its errors are large (results/estimate_bands)."
-            )
+    config = _config(args)
+    try:
+        config.check(bands)  # before any lamp is read or anything trains
+    except ValueError as exc:
+        raise ValueError(f"--bands {args.bands}: {exc}") from None
+    if config.needs_surface and args.surface is None:
+        raise ValueError(
+            f"--estimator {args.estimator} needs --surface NAME|FILE: it divides "
+            "the surface out of the band values, and with the library's mean "
+            "reflectance instead its errors are large (results/estimate_bands)."
+        )
     warnings = band_set_warnings(bands, args.bands, log=sys.stderr)
     check_nir(args.nir)
     lamps = [load_user_lamp(p, args.nir) for p in args.lamps]  # before training
@@ -883,7 +593,8 @@ def run(args) -> int:
     grid = np.asarray(GRID_1NM, float)
     refl, surface_label, mode, knowledge = _surface(args, grid)
     ctx = get_context("search", None, 0, "none")
-    model, basis, desc = _fit(args, ctx, bands, mode)
+    fitted = _fit(args, ctx, bands, mode)
+    desc, rep = fitted.description, fitted.report()
     e_lx = class_illuminance_lx(SCENE["lighting_class"])
     resp = np.asarray(bands.response(jnp.asarray(grid)))
     wts = np.asarray(band_weights(jnp.asarray(resp), jnp.asarray(grid)))
@@ -912,37 +623,9 @@ def run(args) -> int:
             notes.append(note)
     band_rad = np.asarray(band_rad)
     notes += [{**n, "prior_lamp": True} for _, n in prior_loaded if n]
-    if args.estimator == "inversion":
-        if mode == "class":
-            know = [knowledge] * len(band_rad)
-        elif mode == "measured":
-            know = np.repeat(basis.coords(refl[None]), len(band_rad), axis=0)
-        else:
-            know = None
-        # the evaluation scene is moonless (SCENE) and the inversion is told so
-        res = model.predict(band_rad, know, moon=np.zeros(len(band_rad)))
-        est_rows = [res.row(i) for i in range(len(band_rad))]
-    else:
-        from ..classify import predict_lamp_types
-
-        if args.estimator == "direct":
-            from ..inversion import Conditions, surface_basis
-
-            # the evaluation scene has no atmosphere and no Moon (SCENE); the
-            # surface divided out is what the estimator knows of it
-            known = surface_basis(grid).mean if mode == "unknown" else refl
-            est_rows = model.rows(band_rad, Conditions.clear(grid), known)
-        else:
-            est_rows = _baseline_rows(*model, band_rad)
-            level1, level2 = predict_lamp_types(band_rad, bands)
-            for r, l1, l2 in zip(est_rows, level1, level2, strict=True):
-                if r["unexplained"]:  # flagged, not guessed
-                    l1 = l2 = None
-                    r["null_reasons"]["type"] = (
-                        "unexplained: its band ratios are unlike every "
-                        "library lamp's"
-                    )
-                r["predicted_level1"], r["predicted_level2"] = l1, l2
+    surface = Surface(mode, knowledge if mode == "class" else None, refl)
+    est = fitted.predict(band_rad, surface)
+    est_rows = [est.row(i) for i in range(len(est))]
     owner = np.asarray(owner)
     est_rows = [
         merge_candidates([est_rows[i] for i in np.flatnonzero(owner == k)])
@@ -980,36 +663,25 @@ def run(args) -> int:
             "estimator": args.estimator,
             "estimator_description": desc,
             "surface_knowledge": mode,
-            "intervals": args.intervals if args.estimator == "inversion" else None,
-            "interval_unit": (
-                _unit_json(model) if args.estimator == "inversion" else None
-            ),
+            "intervals": rep["intervals"],
+            "interval_unit": rep["interval_unit"],
             "nir_policy": NIR_POLICY,
         },
         "lamps": rows,
         "notes": notes,
         "warnings": warnings,
         "modelled_lamps_used": args.modelled_per_class,
-        "mixtures_per_class": args.mixtures if args.estimator == "inversion" else 0,
-        "cross_mixtures_per_class_pair": (
-            args.cross_mixtures if args.estimator == "inversion" else 0
-        ),
-        "modelled_in_prior": (
-            [i for i in model.prior.ids if i.startswith("planck_")]
-            if args.estimator == "inversion"
-            else []
-        ),
-        "peak_shifts_nm": (
-            model.diagnostics.get("peak_shifts", {}).get("shifts_nm", [])
-            if args.estimator == "inversion"
-            else []
-        ),
-        "tm30_lamps_in_prior": (
-            sum(i.startswith("ies_tm30_") for i in model.prior.ids)
-            if args.estimator == "inversion"
-            else 0
-        ),
-        "sigma_rel": _sigma_json(model, args.estimator),
+        **{
+            k: rep[k]
+            for k in (
+                "mixtures_per_class",
+                "cross_mixtures_per_class_pair",
+                "modelled_in_prior",
+                "peak_shifts_nm",
+                "tm30_lamps_in_prior",
+                "sigma_rel",
+            )
+        },
         "prior_lamps": [
             {"file": str(p), "level2": c, "id": f"own:{n}"}
             for (c, p), n in zip(

@@ -12,7 +12,7 @@ import numpy as np
 from .. import inversion as inv_mod, perturb
 from ..datasets.technology import extend_user_spectrum
 from ..estimate import METRICS, lamp_truth
-from ..evaluator import InversionConfig, fit_on_context
+from ..estimators import InversionConfig, fit_on_context
 from ..forward import dense_spectra
 from ..names import validate_method
 from ..results import RESULTS_DIR
