@@ -77,7 +77,7 @@ are left to the `unexplained` flag, and both groups' calibration is
 reported. Optionally (`nir_error`) every lamp
 whose 780-900 nm part is modelled enters the prior with two copies at the
 low and high end of that model's measured error (`nir_variants`), sharing its
-prior mass. `bandopt.evaluator.InversionConfig` turns both on.
+prior mass. `bandopt.estimators.InversionConfig` turns both on.
 
 **Modules** (each imports only from those above it):
 
