@@ -195,10 +195,17 @@ LAYERS = [
     ("bandopt.classify._scores", "bandopt.classify._inversion"),
     ("bandopt.scene", "bandopt.spatial"),  # spatial renders scenes
     # lamps extends its spectra with nir, nir calibrates on the measured spectra
-    # of _lamp_sources: _lamp_sources <- nir <- lamps
+    # of _lamp_sources: _lamp_sources <- nir <- lamps; _lamp_sources builds on
+    # its readers and screens, which import none of the three
     ("bandopt.datasets.nir", "bandopt.datasets.lamps"),
     ("bandopt.datasets._lamp_sources", "bandopt.datasets.nir"),
     ("bandopt.datasets._lamp_sources", "bandopt.datasets.lamps"),
+    ("bandopt.datasets._lamp_readers", "bandopt.datasets._lamp_sources"),
+    ("bandopt.datasets._lamp_readers", "bandopt.datasets.nir"),
+    ("bandopt.datasets._lamp_readers", "bandopt.datasets.lamps"),
+    ("bandopt.datasets._lamp_screens", "bandopt.datasets._lamp_sources"),
+    ("bandopt.datasets._lamp_screens", "bandopt.datasets.nir"),
+    ("bandopt.datasets._lamp_screens", "bandopt.datasets.lamps"),
     # the inversion is an estimator the search, classification and evaluation use
     ("bandopt.inversion", "bandopt.search"),
     ("bandopt.inversion", "bandopt.classify"),

@@ -17,7 +17,7 @@ import pytest
 
 from bandopt import inversion as inv_mod
 from bandopt.cli import _cmd_evaluate, main
-from bandopt.datasets import _lamp_sources as src
+from bandopt.datasets import _lamp_readers, _lamp_sources as src
 from bandopt.datasets.lamps import library
 from tests._bands import FIVE, GRID
 from tests.test_inversion_mixtures import spy_priors
@@ -216,6 +216,7 @@ def test_bad_tm30_files_are_refused_naming_file_and_row(
         spd = "".join(f"{x:g},{y:g}\n" for x, y in zip(w, v, strict=True))
     (tmp_path / "IESTM30_15_Sinfo.txt").write_text(info)
     (tmp_path / "IESTM30_15_Sspds.dat").write_text(spd)
-    monkeypatch.setattr(src, "_IES_TM30", tmp_path)
+    # the reader reads the folder from its own module at call time
+    monkeypatch.setattr(_lamp_readers, "_IES_TM30", tmp_path)
     with pytest.raises(ValueError, match=match):
         src._tm30_sources()
