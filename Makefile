@@ -10,7 +10,7 @@ SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: run test test-slow lint bench atmospheres surfaces library lamp-models ler \
         g cct sweep compare classify classify-partitions radiometry spatial \
-        noise-aware estimate estimate-moon estimate-mix estimate-noise estimate-intervals estimate-shift estimate-planck estimate-defaults estimate-library estimate-tm30 estimate-bands external-tm30 unseen-ceiling robustness \
+        noise-aware estimate study estimate-moon estimate-library estimate-bands external-tm30 unseen-ceiling robustness \
         before-after report check-report docs tutorial clean help
 
 help:  ## list the targets and what they do
@@ -75,32 +75,14 @@ noise-aware: $(STAMP)
 estimate: $(STAMP)  ## inversion vs regression on held-out and unseen lamps, and the estimators with 5 modelled lamps per rare class in training (writes recommendation.json "estimation")
 	$(BIN)/python -m experiments.estimate --modelled-per-class 5
 
+study: $(STAMP)  ## one study of the estimator by name: NAME=estimate-planck (resumable: ARGS=--resume); without NAME, list them (bandopt.studies.STUDIES)
+	$(BIN)/python -m experiments.study $(NAME) $(ARGS)
+
 estimate-moon: $(STAMP)  ## the estimate's scenes split by Moon state: where the G error comes from (about 10 min)
 	$(BIN)/python -m experiments.estimate_moon
 
-estimate-mix: $(STAMP)  ## the told-Moon inversion with same-class mixtures of its lamps in the prior, on the estimate's scenes and unseen types (about 50 min; resumable: ARGS=--resume)
-	$(BIN)/python -m experiments.estimate_mix $(ARGS)
-
-estimate-noise: $(STAMP)  ## a band-error model (sigma_rel, floor) per metric vs one for all, our bands and the two best reference sensors, surface unknown, 4 lamp partitions, paired; unseen types (resumable: ARGS=--resume)
-	$(BIN)/python -m experiments.estimate_noise $(ARGS)
-
-estimate-intervals: $(STAMP)  ## 90 % intervals in units of the posterior half-width vs half-width + the narrowest calibrated offset (one fit, same estimates), our bands and the two best reference sensors, 4 lamp partitions, paired; unseen types (resumable: ARGS=--resume)
-	$(BIN)/python -m experiments.estimate_intervals $(ARGS)
-
-estimate-shift: $(STAMP)  ## evaluate's estimator without vs with wavelength-shifted copies of the prior's direct-emission LEDs, our bands and the two best reference sensors, 4 lamp partitions, paired; per class; unseen types (resumable: ARGS=--resume)
-	$(BIN)/python -m experiments.estimate_shift $(ARGS)
-
-estimate-planck: $(STAMP)  ## evaluate's estimator without vs with the library's modelled incandescent (Planck) spectra in the prior, our bands and the two best reference sensors, 4 lamp partitions, paired; unseen types; how far measured halogens lie from Planck (resumable: ARGS=--resume)
-	$(BIN)/python -m experiments.estimate_planck $(ARGS)
-
-estimate-defaults: $(STAMP)  ## bandopt evaluate's estimator as a whole (shifted LEDs and Planck spectra in the prior) against the estimator without both, our bands and the two best reference sensors, 4 lamp partitions, paired; unseen types (resumable: ARGS=--resume)
-	$(BIN)/python -m experiments.estimate_defaults $(ARGS)
-
 estimate-library: $(STAMP)  ## what a lamp the library lacks costs: bandopt evaluate's estimator on held-out lamps and on lamps its prior holds, the same lamps paired, our bands and the two best reference sensors; surface knowledge; library size; 4 lamp partitions (resumable: ARGS=--resume)
 	$(BIN)/python -m experiments.estimate_library $(ARGS)
-
-estimate-tm30: $(STAMP)  ## more measured lamps in the prior: bandopt evaluate's estimator without vs with the 210 measured IES TM-30-15 lamps the library lacks (train only), our bands and the two best reference sensors, 4 lamp partitions, paired; unseen types (resumable: ARGS=--resume)
-	$(BIN)/python -m experiments.estimate_tm30 $(ARGS)
 
 estimate-bands: $(STAMP)  ## how many bands the goal needs: bandopt evaluate's estimator with our pan + 5 bands and with 13, 26 and 52 contiguous bands over 380-900 nm, 4 lamp partitions, paired (resumable: ARGS=--resume)
 	$(BIN)/python -m experiments.estimate_bands $(ARGS)

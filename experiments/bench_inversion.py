@@ -35,7 +35,8 @@ import numpy as np
 
 METRIC_NOISE = ((0.01, 0.03), (0.03, 0.001), (0.03, 0.01))
 """(σ_rel, floor) of LER, G and CCT in the per-metric timing (typical
-choices of the per-metric inversion on our bands' folds, `make estimate-noise`)."""
+choices of the per-metric inversion on our bands' folds, `make study
+NAME=estimate-noise`)."""
 TYPES_NOISE = (0.03, 0.003)
 """(σ_rel, floor) of the types and flag in the per-metric timing."""
 
@@ -106,7 +107,7 @@ def main(argv=None) -> int:
     t_mix_told = _best(lambda: inv_mix.predict(pix, moon=moon))
     # each metric under its own band-error model (`bandopt evaluate --sigma
     # per-metric`): three distinct (σ_rel, floor) models and the types' one,
-    # as chosen on the folds of `make estimate-noise` (METRIC_NOISE); one
+    # as chosen on the folds of `make study NAME=estimate-noise` (METRIC_NOISE); one
     # scoring per distinct model
     inv_metric = dataclasses.replace(
         inv_mix,

@@ -50,10 +50,18 @@ from pathlib import Path
 
 import numpy as np
 
+from bandopt.studies import (
+    band_set,
+    diff_cells,
+    fmt_cell,
+    held_out_by_class,
+    held_out_overall,
+    load_records,
+    where_lines,
+)
+
 
 DEFAULT_BAND_SETS = ("recommended", "sdgsat-1", "nightsat", "viirs-dnb")
-CONTIGUOUS = "contiguous-"
-"""Prefix of a band-set name "contiguous-N" (`band_set`)."""
 MODELS = "inversion+models"
 """Estimator label of the inversion with modelled lamps in its prior."""
 EVIDENCE = "inversion-evidence"
@@ -65,53 +73,10 @@ MOON = "inversion-moon"
 (`bandopt.inversion.MOON_ESTIMATOR`)."""
 INVERSIONS = ("inversion", EVIDENCE, MODELS, MOON)
 FULL_SURFACE_SETS = ("recommended", "sdgsat-1")
-RECOMMENDED = Path("results/search/recommended_bands.json")
 
 
 def log(msg: str) -> None:
     print(f"[estimate {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
-
-
-def load_records(rec_path: Path, *, keep: bool, say=None) -> tuple[list, set]:
-    """Records of a resumable run and its finished (partition, band set)
-    units. Without `keep` the file is deleted first (results are
-    recomputed, not replayed); an unreadable line (an interrupted write) is
-    dropped with a message through `say` (default `log`)."""
-    say = log if say is None else say
-    if rec_path.is_file() and not keep:
-        rec_path.unlink()
-    records, done = [], set()
-    if rec_path.is_file():
-        for i, line in enumerate(rec_path.read_text().splitlines()):
-            try:
-                r = json.loads(line)
-            except json.JSONDecodeError:
-                say(f"{rec_path}:{i + 1}: unreadable line dropped (interrupted write)")
-                continue
-            records.append(r)
-            done.add((r["partition"], r["band_set"]))
-    return records, done
-
-
-def band_set(name: str):
-    """A study's band set by name: "recommended" (`make run`'s bands),
-    "contiguous-N" (N equal-width bands tiling the scenes' 380-900 nm,
-    `BandSet.contiguous`) or a reference sensor."""
-    from bandopt.sensor import BandSet
-    from bandopt.sensor.reference import resolve
-
-    if name == "recommended":
-        if not RECOMMENDED.is_file():
-            raise SystemExit(f"{RECOMMENDED}: missing; run `make run` first.")
-        return BandSet.from_json(RECOMMENDED)
-    if name.startswith(CONTIGUOUS):
-        count = name[len(CONTIGUOUS) :]
-        if not count.isdigit():
-            raise ValueError(
-                f"band set {name!r}: expected {CONTIGUOUS}N, N an integer."
-            )
-        return BandSet.contiguous(int(count))
-    return resolve(name).build()
 
 
 def main(argv=None) -> int:
@@ -249,8 +214,8 @@ def main(argv=None) -> int:
             recs = inv_mod.leave_one_class_out(ctx, band_set(name))
             unseen[name] = {
                 "records": recs,
-                "by_class": _by_class(recs),
-                "overall": _overall(recs),
+                "by_class": held_out_by_class(recs),
+                "overall": held_out_overall(recs),
             }
             if n_model:
                 unseen[name]["modelled_per_class"] = 0
@@ -258,8 +223,8 @@ def main(argv=None) -> int:
             recs = inv_mod.leave_one_class_out(ctx, band_set(name), moon_known=True)
             unseen[f"{name}+moon"] = {
                 "records": recs,
-                "by_class": _by_class(recs),
-                "overall": _overall(recs),
+                "by_class": held_out_by_class(recs),
+                "overall": held_out_overall(recs),
                 "moon": "known per pixel",
             }
             if n_model:
@@ -271,8 +236,8 @@ def main(argv=None) -> int:
             )
             unseen["recommended+models"] = {
                 "records": recs,
-                "by_class": _by_class(recs),
-                "overall": _overall(recs),
+                "by_class": held_out_by_class(recs),
+                "overall": held_out_overall(recs),
                 "modelled_per_class": n_model,
             }
         (out / "unseen_types.json").write_text(json.dumps(unseen, indent=2) + "\n")
@@ -444,23 +409,6 @@ def _coverage(summary, unseen) -> dict:
     return out
 
 
-def _fmt(r, m, digits):
-    v, sd = r.get(m), r.get(f"{m}_sd")
-    if v is None:
-        return "n/a"
-    return f"{v:.{digits}f} ± {sd:.{digits}f}" if sd is not None else f"{v:.{digits}f}"
-
-
-def diff_cells(p: dict, columns=(("LER", 1), ("G", 3), ("CCT", 0))) -> list[str]:
-    """Table cells `mean ± SD` of a paired row's differences of `columns`
-    ((summary column, decimals); default LER, G and CCT)."""
-    cells = []
-    for m, d in columns:
-        v, sd = p.get(f"{m}_diff"), p.get(f"{m}_diff_sd")
-        cells.append("n/a" if v is None else f"{v:+.{d}f} ± {(sd or 0):.{d}f}")
-    return cells
-
-
 def readme_text(summary, paired, unseen, variants=()) -> str:
     """The results/README.md section, every number read from the summaries."""
     lines = [
@@ -491,8 +439,9 @@ def readme_text(summary, paired, unseen, variants=()) -> str:
         un = "n/a" if r.get("unexplained") is None else f"{r['unexplained']:.3f}"
         lines.append(
             f"| {r['band_set']} | {r['estimator']} | {r['surface']} | "
-            f"{_fmt(r, 'LER', 1)} | {_fmt(r, 'G', 3)} | {_fmt(r, 'CCT', 0)} | "
-            f"{_fmt(r, 'CCT_mired', 1)} | {cov} | {l1} | {un} | {r['out_of_range']} |"
+            f"{fmt_cell(r, 'LER', 1)} | {fmt_cell(r, 'G', 3)} | "
+            f"{fmt_cell(r, 'CCT', 0)} | {fmt_cell(r, 'CCT_mired', 1)} | {cov} | "
+            f"{l1} | {un} | {r['out_of_range']} |"
         )
     if paired:
         lines += [
@@ -552,28 +501,6 @@ def readme_text(summary, paired, unseen, variants=()) -> str:
         ]
         lines += where_lines(u.get("by_class"))
     return "\n".join(lines) + "\n"
-
-
-def where_lines(by_class) -> list[str]:
-    """One line saying where each held-out class's pixels went (its three
-    most frequent level-1 families and their fractions) from an unseen-types
-    `by_class`; none when no class has `level1_predicted`."""
-    where = {
-        c: row["level1_predicted"]
-        for c, row in (by_class or {}).items()
-        if row.get("level1_predicted")
-    }
-    if not where:
-        return []
-    parts = [
-        f"{c} → " + ", ".join(f"{k} {v:.2f}" for k, v in list(frac.items())[:3])
-        for c, frac in where.items()
-    ]
-    return [
-        "Where each held-out class's pixels went (level-1 family, fraction): "
-        + "; ".join(parts)
-        + "."
-    ]
 
 
 def _training_sentence(summary) -> str:
@@ -640,58 +567,6 @@ def _recommendation(summary, coverage) -> dict:
         "coverage": coverage,
         "source": "results/estimate/summary.json",
     }
-
-
-
-def _by_class(recs):
-    """Per held-out class: lamp count and the mean of each of the summary's
-    columns a held-out class has (`inversion.SUMMARY_COLUMNS` but level-2,
-    never in the prior, and CCT in mired)."""
-    from bandopt.inversion import SUMMARY_COLUMNS  # JAX only when summarising
-
-    columns = [c for c in SUMMARY_COLUMNS if c not in ("CCT_mired", "level2_correct")]
-    out = {}
-    for c in sorted({r["held_out_class"] for r in recs}):
-        rs = [r for r in recs if r["held_out_class"] == c]
-        row = {"lamps": len(rs), "level1_in_prior": rs[0]["level1_in_prior"]}
-        for k in columns:
-            v = [r[k] for r in rs if r.get(k) is not None]
-            row[k] = float(np.mean(v)) if v else None
-        row["out_of_range"] = int(sum(r["out_of_range"] for r in rs))
-        pred = [r["level1_predicted"] for r in rs if "level1_predicted" in r]
-        if pred:  # mean over the class's lamps of each lamp's pixel fractions
-            keys = sorted({k for d in pred for k in d})
-            frac = {k: float(np.mean([d.get(k, 0.0) for d in pred])) for k in keys}
-            row["level1_predicted"] = dict(sorted(frac.items(), key=lambda kv: -kv[1]))
-        out[c] = row
-    return out
-
-
-def _overall(recs):
-    """Class-balanced over held-out classes (each lamp's value averaged within
-    its class first)."""
-    bc = _by_class(recs)
-    res = {}
-    for k in (
-        "LER_covered",
-        "G_covered",
-        "CCT_covered",
-        "LER_width",
-        "G_width",
-        "CCT_width",
-        "CCT_width_mired",
-        "level1_correct",
-        "unexplained",
-    ):
-        v = [row[k] for row in bc.values() if row.get(k) is not None]
-        res[k] = float(np.mean(v)) if v else None
-    res["level1_correct_where_family_in_prior"] = float(
-        np.mean(
-            [row["level1_correct"] for row in bc.values() if row["level1_in_prior"]]
-        )
-    )
-    res["out_of_range"] = int(sum(row["out_of_range"] for row in bc.values()))
-    return res
 
 
 ESTIMATOR_COLOURS = {

@@ -24,16 +24,22 @@ lamp trains it) with the surface unknown, known, or measured by Sentinel-2.
 
 Writes `records.jsonl`, `summary.json`, `errors.png`, `manifest.json` and
 the `estimate-bands` section of `results/README.md` (default output only),
-as `experiments.estimate_mix` does (`Study`). Measured lamps only score;
+as every study does (`bandopt.studies.run`). Measured lamps only score;
 the priors hold the library's modelled Planck spectra (as evaluate's).
 """
 
 import numpy as np
 
-from experiments.estimate import _fmt, diff_cells
-from experiments.estimate_defaults import DEFAULT
-from experiments.estimate_mix import Study, main as _run, row_line
-from experiments.estimate_shift import class_means
+from bandopt.studies import (
+    Study,
+    band_set,
+    class_means,
+    diff_cells,
+    fmt_cell,
+    row_line,
+    run,
+)
+from bandopt.studies.ablations.defaults import DEFAULT
 
 
 COUNTS = (13, 26, 52)
@@ -170,7 +176,6 @@ def direct_summary(partitions) -> dict:
     # lazy: JAX is configured by the study's main before these are used
     from bandopt import inversion as inv_mod
     from bandopt.search import get_context
-    from experiments.estimate import band_set
 
     records = []
     for p in partitions:
@@ -220,8 +225,8 @@ def direct_lines(direct: dict, label) -> list[str]:
     ]
     for r in rows:
         lines.append(
-            f"| {label(r['band_set'])} | {r['surface']} | {_fmt(r, 'LER', 1)} | "
-            f"{_fmt(r, 'G', 3)} | {_fmt(r, 'CCT', 0)} | {r['out_of_range']} |"
+            f"| {label(r['band_set'])} | {r['surface']} | {fmt_cell(r, 'LER', 1)} | "
+            f"{fmt_cell(r, 'G', 3)} | {fmt_cell(r, 'CCT', 0)} | {r['out_of_range']} |"
         )
     met = [r for r in rows if meets_goal(r)]
     near = [
@@ -255,8 +260,6 @@ def direct_lines(direct: dict, label) -> list[str]:
 def band_definitions() -> dict:
     """Each band set's bands: count, centres and FWHMs [nm]."""
     # lazy: JAX is configured by the study's main before bands are built
-    from experiments.estimate import band_set
-
     out = {}
     for name in BAND_SETS:
         b = band_set(name)
@@ -458,11 +461,11 @@ STUDY = Study(
         "direct": direct_summary(sorted({r["partition"] for r in records})),
     },
 )
-"""The study `main` runs (`experiments.estimate_mix.Study`)."""
+"""The study `main` runs (`bandopt.studies.Study`)."""
 
 
 def main(argv=None) -> int:
-    return _run(argv, STUDY)
+    return run(STUDY, argv)
 
 
 if __name__ == "__main__":

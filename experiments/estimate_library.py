@@ -1,12 +1,12 @@
 """How much of the held-out error is the library's coverage (issue 12).
 
-`make estimate-defaults` scores `bandopt evaluate`'s estimator on lamps the
+`make study NAME=estimate-defaults` scores `bandopt evaluate`'s estimator on lamps the
 library does not hold: each outer fold's test lamps are left out of its
 prior. This run scores the same estimator, scenes and lamp partitions twice
 per band set (surface unknown, Moon told; our bands and the two best
 reference sensors):
 
-- held out: every outer fold's test lamps, as `make estimate-defaults`;
+- held out: every outer fold's test lamps, as `make study NAME=estimate-defaults`;
 - in library: outer fold 0's training lamps, which its prior holds
   (`cross_validate(scored="train")`): the error left when the library has a
   measured spectrum of the very lamp (the bands' and the inversion's own
@@ -43,16 +43,21 @@ import json
 import time
 from pathlib import Path
 
-from experiments.estimate import _fmt, band_set, diff_cells, load_records
-from experiments.estimate_defaults import DEFAULT
-from experiments.estimate_mix import (
+from bandopt.studies import (
     UNKNOWN_ONLY,
+    band_set,
+    by_class,
+    class_change_cells,
+    diff_cells,
     figure,
+    fmt_cell,
     keep_unit,
+    load_records,
     log as _log,
     partition_args,
+    reference_lines,
 )
-from experiments.estimate_shift import by_class, class_change_cells, reference_lines
+from bandopt.studies.ablations.defaults import DEFAULT
 
 
 OUT = "results/estimate_library"
@@ -277,7 +282,7 @@ def readme_text(summary: dict) -> str:
         + "`: surface unknown, the Moon told) on the scenes, lamp partitions and "
         "folds of `make estimate`, our bands and the two best reference sensors. "
         "*Held out*: each lamp scored by the outer fold that leaves it out of the "
-        "prior (as in `make estimate-defaults`). *In library*: outer fold "
+        "prior (as in `make study NAME=estimate-defaults`). *In library*: outer fold "
         f"{summary['fold_in_library']}'s training lamps, which its prior holds, "
         "scored by that fold: what is left when the library has a measured "
         "spectrum of the very lamp (surface, Moon, atmosphere, noise and the "
@@ -301,8 +306,9 @@ def readme_text(summary: dict) -> str:
         )
         lines.append(
             f"| {r['band_set']} | {names[r['estimator']]} | "
-            f"{r['lamps_per_partition']} | {_fmt(r, 'LER', 1)} | {_fmt(r, 'G', 3)} | "
-            f"{_fmt(r, 'CCT', 0)} | {_fmt(r, 'CCT_mired', 1)} | {cov} | "
+            f"{r['lamps_per_partition']} | {fmt_cell(r, 'LER', 1)} | "
+            f"{fmt_cell(r, 'G', 3)} | "
+            f"{fmt_cell(r, 'CCT', 0)} | {fmt_cell(r, 'CCT_mired', 1)} | {cov} | "
             f"{r['level1_correct']:.2f} |"
         )
     lines += [
@@ -356,8 +362,8 @@ def readme_text(summary: dict) -> str:
         for z in size["sizes"]:
             n = "n/a" if z["train_lamps"] is None else f"{z['train_lamps']:.0f}"
             lines.append(
-                f"| {n} | {z['fraction']:.0%} | {_fmt(z, 'LER', 1)} | "
-                f"{_fmt(z, 'G', 3)} | {_fmt(z, 'CCT', 0)} |"
+                f"| {n} | {z['fraction']:.0%} | {fmt_cell(z, 'LER', 1)} | "
+                f"{fmt_cell(z, 'G', 3)} | {fmt_cell(z, 'CCT', 0)} |"
             )
         said = []
         for m, unit in (("LER", " lm/W"), ("G", ""), ("CCT", " K")):
@@ -405,8 +411,8 @@ def readme_text(summary: dict) -> str:
                 d = diffs.get((est, mode))
                 cells = diff_cells(d) if d else ["", "", ""]
                 lines.append(
-                    f"| {mode} | {names[est]} | {_fmt(r, 'LER', 1)} | "
-                    f"{_fmt(r, 'G', 3)} | {_fmt(r, 'CCT', 0)} | "
+                    f"| {mode} | {names[est]} | {fmt_cell(r, 'LER', 1)} | "
+                    f"{fmt_cell(r, 'G', 3)} | {fmt_cell(r, 'CCT', 0)} | "
                     + " | ".join(cells)
                     + " |"
                 )

@@ -31,7 +31,13 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.estimate import diff_cells, where_lines
+from bandopt.studies import (
+    band_set,
+    diff_cells,
+    held_out_by_class,
+    held_out_overall,
+    where_lines,
+)
 
 
 MOON_STATES = {
@@ -177,7 +183,6 @@ def main(argv=None) -> int:
     from bandopt.provenance import write_manifest
     from bandopt.results import update_readme_section
     from bandopt.search import get_context
-    from experiments.estimate import band_set
 
     out = Path(args.out or "results/estimate_moon")
     out.mkdir(parents=True, exist_ok=True)
@@ -212,9 +217,7 @@ def main(argv=None) -> int:
                         k: s.get(k)
                         for k in ("LER", "LER_sd", "G", "G_sd", "CCT", "CCT_sd")
                     },
-                    "coverage": {
-                        m: s.get(f"{m}_covered") for m in ("LER", "G", "CCT")
-                    },
+                    "coverage": {m: s.get(f"{m}_covered") for m in ("LER", "G", "CCT")},
                     "G_by_class": g_by_class(
                         [r for r in recs if r["band_set"] == s["band_set"]],
                         s["estimator"],
@@ -230,7 +233,6 @@ def main(argv=None) -> int:
             )
         all_recs += recs
     # unseen lamp types (each scored class held out), recommended bands
-    from experiments.estimate import _by_class, _overall
 
     unseen = {}
     ctx = get_context("search", None, 0, "auto")
@@ -238,7 +240,10 @@ def main(argv=None) -> int:
         recs = inv_mod.leave_one_class_out(
             ctx, band_set("recommended"), moon_known=known, calibration=calibration
         )
-        unseen[label] = {"by_class": _by_class(recs), "overall": _overall(recs)}
+        unseen[label] = {
+            "by_class": held_out_by_class(recs),
+            "overall": held_out_overall(recs),
+        }
         log(f"unseen types, {label}: {time.time() - t0:.0f} s")
     summary = {
         "partitions": args.partitions,

@@ -294,8 +294,8 @@ def readme_text(summary: dict) -> str:
         lines += [
             "",
             f"For comparison, the same estimator on the library's held-out lamps "
-            f"(`make estimate-defaults`, scenes with surfaces, atmospheres and the "
-            f"Moon): {ref}.",
+            "(`make study NAME=estimate-defaults`, scenes with surfaces, "
+            f"atmospheres and the Moon): {ref}.",
         ]
     return "\n".join(lines) + "\n"
 
@@ -504,7 +504,7 @@ def _evaluate(bands: str, files: list[str], options=()) -> dict:
 
 def _in_library_reference(path: Path) -> str | None:
     """Our bands' and SDGSAT-1's held-out errors with evaluate's estimator, as
-    stored by `make estimate-defaults` (read, not recomputed)."""
+    stored by `make study NAME=estimate-defaults` (read, not recomputed)."""
     if not path.is_file():
         return None
     data = json.loads(path.read_text())

@@ -3,7 +3,7 @@
 Issue 12 asks that, for lamp types the library has never seen (each scored
 level-2 class held out in turn), the level-1 family (led, hid, fluorescent,
 incandescent, lps) is right for >= 90 % of lamps. The physics-based inversion
-on the scenes of `make estimate-mix` gets about 0.4 (class mean). This
+on the scenes of `make study NAME=estimate-mix` gets about 0.4 (class mean). This
 measures what is attainable at all with a classifier trained on the library's
 other types: the bare lamp spectrum, without surface, atmosphere, Moon or
 noise, binned to 5, 10, 20 and 50 nm, and the noise-free values of the
@@ -654,7 +654,7 @@ def main(argv=None) -> int:
     from bandopt.provenance import write_manifest
     from bandopt.results import update_readme_section
     from bandopt.search import get_context
-    from experiments.estimate import RECOMMENDED, band_set
+    from bandopt.studies import RECOMMENDED, band_set  # JAX only when run
 
     out = Path(args.out or "results/unseen_ceiling")
     out.mkdir(parents=True, exist_ok=True)

@@ -11,10 +11,9 @@ import numpy as np
 import pytest
 
 from bandopt import inversion as inv_mod
+from bandopt.studies import band_set, manifest_config
+from bandopt.studies.ablations.defaults import DEFAULT
 from experiments import estimate_bands as eb
-from experiments.estimate import band_set
-from experiments.estimate_defaults import DEFAULT
-from experiments.estimate_mix import manifest_config
 
 
 def test_study_scores_evaluates_estimator_on_each_band_set_paired_with_ours():

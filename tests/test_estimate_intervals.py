@@ -1,13 +1,18 @@
-"""`experiments/estimate_intervals.py`: its study, the summary and README
+"""`bandopt/studies/ablations/intervals.py`: its study, the summary and README
 text it builds from per-lamp records (the runs themselves are `make
 estimate-intervals`)."""
 
 import pytest
 
 from bandopt import inversion as inv_mod
-from experiments import estimate_intervals as ei
-from experiments.estimate import _overall
-from experiments.estimate_mix import _by_intervals
+from bandopt.studies import (
+    STUDIES,
+    by_intervals,
+    held_out_overall as _overall,
+    manifest_config,
+    run,
+)
+from bandopt.studies.ablations import intervals as ei
 
 
 def test_study_scores_both_units_from_one_fit_for_every_band_set():
@@ -114,31 +119,29 @@ def test_unseen_records_split_by_their_intervals():
                  "LER_width": 100 * cov, "level1_correct": 1.0, "unexplained": 0.0,
                  "out_of_range": 0, "intervals": tag}
             )  # fmt: skip
-    split = _by_intervals(recs)
+    split = by_intervals(recs)
     assert list(split) == ["narrowest", "offset 0"]
     assert _overall(split["narrowest"])["LER_width"] == 50.0
     assert _overall(split["offset 0"])["LER_covered"] == 1.0
-    assert list(_by_intervals([{"a": 1}])) == [None]
+    assert list(by_intervals([{"a": 1}])) == [None]
 
 
 def test_manifest_lists_every_unseen_run_with_its_offsets():
-    from experiments.estimate_mix import Study, manifest_config
-
     runs = manifest_config(ei.STUDY, 4)["unseen_types"]
     assert runs == [
         {"label": f"{ei.NARROW}-loco", "mixtures": None,
          "interval_calibration": "classes", "sigma_rule": "per-metric",
          "interval_offsets": list(ei.GRID), "options": {}}
     ]  # fmt: skip
-    old = manifest_config(Study(), 4)["unseen_types"]  # four-field runs
+    old = manifest_config(STUDIES["estimate-mix"], 4)["unseen_types"]  # four-field runs
     assert {r["interval_offsets"] == [0.0] for r in old} == {True}
     assert [r["options"] for r in old] == [{}] * len(old)
-    assert manifest_config(Study(), 4)["modelled_lamps_used"] is False
+    assert manifest_config(STUDIES["estimate-mix"], 4)["modelled_lamps_used"] is False
 
 
 def test_help_is_this_studys(capsys):
     with pytest.raises(SystemExit):
-        ei.main(["--help"])
+        run(ei.STUDY, ["--help"])
     assert "Narrower 90 % intervals" in capsys.readouterr().out
 
 

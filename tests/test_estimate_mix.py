@@ -1,12 +1,14 @@
-"""`experiments/estimate_mix.py`: its pure parts (the README table, the
-paired rows, the figure) on a hand-made summary."""
+"""`bandopt/studies/ablations/mix.py` and the study machinery: its pure
+parts (the README table, the paired rows, the figure) on a hand-made
+summary."""
 
 import json
 
 import numpy as np
 import pytest
 
-from experiments import estimate_mix as em
+from bandopt import studies
+from bandopt.studies.ablations import mix as em
 
 
 def _summary():
@@ -24,6 +26,8 @@ def _summary():
     }  # fmt: skip
     return {
         "partitions": 4,
+        "estimators": list(em.ESTIMATORS),
+        "title": em.TITLE,
         "mix_pairs": 50,
         "mix_fractions": [0.25, 0.5, 0.75],
         "oracle": {"LER": 0.04, "G": 0.0001, "sigma_rel": 0.003},
@@ -90,7 +94,7 @@ def test_missing_values_are_said_not_invented():
 
 def test_figure_is_written(tmp_path):
     path = tmp_path / "errors.png"
-    em.figure(_summary(), path)
+    studies.figure(_summary(), path)
     from matplotlib.image import imread
 
     img = imread(path)
@@ -99,11 +103,11 @@ def test_figure_is_written(tmp_path):
 
 
 def test_resumable_records_keep_finished_units_and_drop_a_torn_line(tmp_path):
-    """`experiments.estimate.load_records` (used by estimate and estimate_mix):
+    """`bandopt.studies.load_records` (used by every study):
     with `keep` the finished units come back and a half-written last line is
     dropped with a message naming the file and line; without it the file is
     deleted (recomputed, not replayed)."""
-    from experiments.estimate import load_records
+    from bandopt.studies import load_records
 
     path = tmp_path / "records.jsonl"
     good = [{"partition": 0, "band_set": "a"}, {"partition": 1, "band_set": "b"}]
@@ -117,8 +121,7 @@ def test_resumable_records_keep_finished_units_and_drop_a_torn_line(tmp_path):
 
 
 def test_kept_units_are_read_back_on_resume(tmp_path):
-    from experiments.estimate import load_records
-    from experiments.estimate_mix import keep_unit
+    from bandopt.studies import keep_unit, load_records
 
     path = tmp_path / "records.jsonl"
     a = [{"partition": 0, "band_set": "x", "LER": 1.0}]
@@ -129,9 +132,13 @@ def test_kept_units_are_read_back_on_resume(tmp_path):
 
 @pytest.mark.parametrize("study", ["estimate_mix", "estimate_library"])
 def test_only_partitions_is_checked_before_any_work(study, capsys):
+    import functools
     import importlib
 
-    main = importlib.import_module(f"experiments.{study}").main
+    if study == "estimate_mix":
+        main = functools.partial(studies.run, em.STUDY)
+    else:
+        main = importlib.import_module(f"experiments.{study}").main
     with pytest.raises(SystemExit):
         main(["--partitions", "2", "--only-partitions", "2", "--out", "x"])
     assert "each must be in 0..1" in capsys.readouterr().err

@@ -1,7 +1,8 @@
-"""`experiments/estimate_noise.py`: its study and README text on a hand-made
-summary (the runs themselves are `make estimate-noise`)."""
+"""`bandopt/studies/ablations/noise.py`: its study and README text on a hand-made
+summary (the runs themselves are `make study NAME=estimate-noise`)."""
 
-from experiments import estimate_noise as en
+from bandopt.studies import run
+from bandopt.studies.ablations import noise as en
 
 
 def _row(band_set, est, ler):
@@ -59,5 +60,5 @@ def test_help_is_this_studys(capsys):
     import pytest
 
     with pytest.raises(SystemExit):
-        en.main(["--help"])
+        run(en.STUDY, ["--help"])
     assert "A band-error model per metric" in capsys.readouterr().out

@@ -2,19 +2,19 @@
 their studies, the per-class table and README text they build from per-lamp
 records, the manifest saying whether modelled spectra trained, and how far
 measured halogen lamps lie from a Planck radiator (the runs themselves are
-`make estimate-shift` and `make estimate-planck`)."""
+`make study NAME=estimate-shift` and `make study NAME=estimate-planck`)."""
 
 import numpy as np
 import pytest
 
 from bandopt import inversion as inv_mod
-from experiments import (
-    estimate_defaults as ed,
-    estimate_planck as ep,
-    estimate_shift as es,
-    estimate_tm30 as et,
+from bandopt.studies import manifest_config
+from bandopt.studies.ablations import (
+    defaults as ed,
+    planck as ep,
+    shift as es,
+    tm30 as et,
 )
-from experiments.estimate_mix import manifest_config
 
 
 def test_studies_pair_evaluates_estimator_with_one_change_each():

@@ -1,52 +1,153 @@
-"""Wavelength-shifted direct-emission LEDs in the prior (issue 12).
-
-A direct-emission (semiconductor) LED's band sits where its composition
-puts it and moves with junction temperature, so a new amber LED usually has
-its band a few nm from every library LED's; a prior of measured lamps and
-their blends cannot represent it (a blend of two narrow bands is two bands,
-not one in between). This scores `inversion-moon-mix-metric-narrow` (the
-estimator of `bandopt evaluate`: blends in the prior, the Moon told, one
-band-error model per metric, the narrowest calibrated interval unit)
-against `inversion-moon-mix-metric-narrow-shift`, the same with copies of
-every prior's own direct-emission LEDs shifted by `PEAK_SHIFTS_NM`
-(`bandopt.inversion.shifted_lamps`). Surface unknown, our bands and the two
-best reference sensors, the scenes, lamp partitions and folds of `make
-estimate`, paired by partition; and on unseen lamp types (recommended
-bands, partition 0, intervals calibrated on training classes held out in
-turn, as `bandopt evaluate` by default), without and with the shifts.
-
-    python -m experiments.estimate_shift [--partitions 4] [--out DIR]
-        [--resume] [--only-partitions P ...] [--no-unseen]
-
-Writes `records.jsonl`, `summary.json`, `errors.png`, `manifest.json` and
-the `estimate-shift` section of `results/README.md` (default output only),
-as `experiments.estimate_mix` does (`Study`). Measured lamps only score;
-the blends and shifted copies are built from each fit's training lamps only.
-"""
+"""The tables and sentences of a study's README section, read from its
+summary: cells of means ± SD and paired differences, per-class means, the
+held-out-class (unseen types) summaries, and the section of a study that
+scores an estimator against a variant of it (`variant_text`)."""
 
 import numpy as np
 
-from experiments.estimate import _fmt, diff_cells, where_lines
-from experiments.estimate_mix import UNKNOWN_ONLY, Study, main as _run, row_line
+from ..inversion import SUMMARY_COLUMNS
 
 
 BASE = "inversion-moon-mix-metric-narrow"
+
+
 SHIFT = "inversion-moon-mix-metric-narrow-shift"
 """Without and with shifted copies of direct-emission LEDs in every prior."""
+
 
 GRID = (0.0, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0)
 """`bandopt.inversion.INTERVAL_OFFSET_GRID` (checked by the tests; named
 here so `--help` needs no JAX)."""
 
+
 SHIFTS = (-10.0, -7.5, -5.0, -2.5, 2.5, 5.0, 7.5, 10.0)
 """`bandopt.inversion.PEAK_SHIFTS_NM` (checked by the tests)."""
 
+
 COLUMNS = ("LER", "G", "CCT", "CCT_mired", "LER_covered", "LER_width")
 """Summary columns compared by partition, shift minus base."""
+
+
 PAIRED_DIGITS = {"LER": 1, "G": 3, "CCT": 0, "CCT_mired": 1, "LER_covered": 3,
                  "LER_width": 1}  # fmt: skip
 
+
 CLASS_KEYS = ("LER", "G", "CCT", "CCT_mired", "LER_covered", "level1_correct")
+
+
+def fmt_cell(r, m, digits) -> str:
+    """`mean ± SD` of summary row `r`'s column `m` at `digits` decimals
+    ("n/a" where it has none)."""
+    v, sd = r.get(m), r.get(f"{m}_sd")
+    if v is None:
+        return "n/a"
+    return f"{v:.{digits}f} ± {sd:.{digits}f}" if sd is not None else f"{v:.{digits}f}"
+
+
+def diff_cells(p: dict, columns=(("LER", 1), ("G", 3), ("CCT", 0))) -> list[str]:
+    """Table cells `mean ± SD` of a paired row's differences of `columns`
+    ((summary column, decimals); default LER, G and CCT)."""
+    cells = []
+    for m, d in columns:
+        v, sd = p.get(f"{m}_diff"), p.get(f"{m}_diff_sd")
+        cells.append("n/a" if v is None else f"{v:+.{d}f} ± {(sd or 0):.{d}f}")
+    return cells
+
+
+def where_lines(by_class) -> list[str]:
+    """One line saying where each held-out class's pixels went (its three
+    most frequent level-1 families and their fractions) from an unseen-types
+    `by_class`; none when no class has `level1_predicted`."""
+    where = {
+        c: row["level1_predicted"]
+        for c, row in (by_class or {}).items()
+        if row.get("level1_predicted")
+    }
+    if not where:
+        return []
+    parts = [
+        f"{c} → " + ", ".join(f"{k} {v:.2f}" for k, v in list(frac.items())[:3])
+        for c, frac in where.items()
+    ]
+    return [
+        "Where each held-out class's pixels went (level-1 family, fraction): "
+        + "; ".join(parts)
+        + "."
+    ]
+
+
+def held_out_by_class(recs) -> dict:
+    """Per held-out class: lamp count and the mean of each of the summary's
+    columns a held-out class has (`inversion.SUMMARY_COLUMNS` but level-2,
+    never in the prior, and CCT in mired)."""
+    columns = [c for c in SUMMARY_COLUMNS if c not in ("CCT_mired", "level2_correct")]
+    out = {}
+    for c in sorted({r["held_out_class"] for r in recs}):
+        rs = [r for r in recs if r["held_out_class"] == c]
+        row = {"lamps": len(rs), "level1_in_prior": rs[0]["level1_in_prior"]}
+        for k in columns:
+            v = [r[k] for r in rs if r.get(k) is not None]
+            row[k] = float(np.mean(v)) if v else None
+        row["out_of_range"] = int(sum(r["out_of_range"] for r in rs))
+        pred = [r["level1_predicted"] for r in rs if "level1_predicted" in r]
+        if pred:  # mean over the class's lamps of each lamp's pixel fractions
+            keys = sorted({k for d in pred for k in d})
+            frac = {k: float(np.mean([d.get(k, 0.0) for d in pred])) for k in keys}
+            row["level1_predicted"] = dict(sorted(frac.items(), key=lambda kv: -kv[1]))
+        out[c] = row
+    return out
+
+
+def held_out_overall(recs) -> dict:
+    """Class-balanced over held-out classes (each lamp's value averaged within
+    its class first)."""
+    bc = held_out_by_class(recs)
+    res = {}
+    for k in (
+        "LER_covered",
+        "G_covered",
+        "CCT_covered",
+        "LER_width",
+        "G_width",
+        "CCT_width",
+        "CCT_width_mired",
+        "level1_correct",
+        "unexplained",
+    ):
+        v = [row[k] for row in bc.values() if row.get(k) is not None]
+        res[k] = float(np.mean(v)) if v else None
+    res["level1_correct_where_family_in_prior"] = float(
+        np.mean(
+            [row["level1_correct"] for row in bc.values() if row["level1_in_prior"]]
+        )
+    )
+    res["out_of_range"] = int(sum(row["out_of_range"] for row in bc.values()))
+    return res
+
+
+def row_line(r: dict, surface: bool = True) -> str:
+    """A summary row as a README table line: band set, surface (optional),
+    estimator, MAE ± SD per metric, coverage per metric, level-1 right."""
+    cov = "/".join(
+        "n/a" if r.get(f"{m}_covered") is None else f"{r[f'{m}_covered']:.2f}"
+        for m in ("LER", "G", "CCT")
+    )
+    l1 = r.get("level1_correct")
+    where = f"{r['band_set']} | {r['surface']}" if surface else r["band_set"]
+    return (
+        f"| {where} | {r['estimator']} | "
+        f"{fmt_cell(r, 'LER', 1)} | {fmt_cell(r, 'G', 3)} | {fmt_cell(r, 'CCT', 0)} | "
+        f"{cov} | {'n/a' if l1 is None else f'{l1:.2f}'} |"
+    )
+
+
+def by_intervals(recs) -> dict:
+    """Unseen-types records by their `"intervals"` tag (None when untagged:
+    one kind of interval), in order of first appearance."""
+    out: dict = {}
+    for r in recs:
+        out.setdefault(r.get("intervals"), []).append(r)
+    return out
 
 
 def by_class(records, estimators=(BASE, SHIFT)) -> dict:
@@ -77,20 +178,6 @@ def class_means(records, keys=CLASS_KEYS) -> dict:
         }
         out[c]["lamps"] = len({r["lamp"] for r in cr})
     return out
-
-
-def readme_text(summary: dict) -> str:
-    shifts = ", ".join(f"{x:+g}" for x in summary["peak_shifts_nm"])
-    return variant_text(
-        summary,
-        SHIFT,
-        "## Shifted direct-emission LEDs in the prior "
-        "(`results/estimate_shift/`, `make estimate-shift`)",
-        f"`{SHIFT}` also holds, in every prior it builds, copies of that prior's "
-        "own direct-emission LEDs (one visible band at most 40 nm wide: in this "
-        f"library the four direct amber LEDs) shifted by {shifts} nm.",
-        "without → with shifts",
-    )
 
 
 def class_change_cells(before: dict, after: dict) -> list[str]:
@@ -184,9 +271,7 @@ def variant_text(
         lines += [
             "",
             "Per held-out class (recommended bands, mean over lamps and "
-            f"partitions; lamps per class), {change}: "
-            + "; ".join(cells)
-            + ".",
+            f"partitions; lamps per class), {change}: " + "; ".join(cells) + ".",
         ]
     for label, u in (summary.get("unseen_types") or {}).items():
         if label.endswith("(offset 0)"):
@@ -198,39 +283,9 @@ def variant_text(
             "scored class held out in turn, intervals calibrated on training "
             f"classes held out in turn): coverage LER {o['LER_covered']:.2f}, G "
             f"{o['G_covered']:.2f}, CCT {o['CCT_covered']:.2f}; mean LER width "
-            f"{_fmt(o, 'LER_width', 0)} lm/W; level-1 right "
+            f"{fmt_cell(o, 'LER_width', 0)} lm/W; level-1 right "
             f"{o['level1_correct']:.2f}; unexplained {o['unexplained']:.2f}; out "
             f"of range {o['out_of_range']}.",
         ]
         lines += where_lines(u.get("by_class"))
     return "\n".join(lines) + "\n"
-
-
-STUDY = Study(
-    name="estimate-shift",
-    out="results/estimate_shift",
-    heading="## Shifted direct-emission LEDs in the prior",
-    band_sets=dict(UNKNOWN_ONLY),
-    estimators=(BASE, SHIFT),
-    pairs=((SHIFT, BASE),),
-    unseen=(
-        (f"{BASE}-loco", None, "classes", "per-metric", GRID),
-        (f"{SHIFT}-loco", None, "classes", "per-metric", GRID, {"peak_shifts": SHIFTS}),
-    ),
-    title="Held-out measured lamps, surface unknown, Moon told: without vs with "
-    "shifted direct-emission LEDs in the prior",
-    oracle=False,
-    readme=readme_text,
-    description=__doc__.splitlines()[0],
-    paired_columns=COLUMNS,
-    extra=lambda records: {"by_class": by_class(records)},
-)
-"""The study `main` runs (`experiments.estimate_mix.Study`)."""
-
-
-def main(argv=None) -> int:
-    return _run(argv, STUDY)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

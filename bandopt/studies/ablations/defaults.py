@@ -1,8 +1,7 @@
-"""`bandopt evaluate`'s estimator as a whole: shifted LEDs and Planck spectra
-together (issue 12).
+"""`bandopt evaluate`'s estimator as a whole: shifted LEDs and Planck spectra.
 
-`make estimate-shift` and `make estimate-planck` each pair one change to the
-prior against `inversion-moon-mix-metric-narrow`; `bandopt evaluate` makes
+The studies `estimate-shift` and `estimate-planck` each pair one change to
+the prior against `inversion-moon-mix-metric-narrow`; `bandopt evaluate` makes
 both by default. This scores the two together,
 `inversion-moon-mix-metric-narrow-shift-planck`, against the same base, on
 the same scenes, lamp partitions and folds (surface unknown, our bands and
@@ -11,23 +10,15 @@ types (recommended bands, partition 0, intervals calibrated on training
 classes held out in turn), so the README's headline numbers are those of
 the estimator a user gets. Modelled (Planck) spectra train, never score.
 
-    python -m experiments.estimate_defaults [--partitions 4] [--out DIR]
-        [--resume] [--only-partitions P ...] [--no-unseen]
+    make study NAME=estimate-defaults [ARGS="--resume ..."]
 
 Writes `records.jsonl`, `summary.json`, `errors.png`, `manifest.json` and
 the `estimate-defaults` section of `results/README.md` (default output
-only), as `experiments.estimate_mix` does (`Study`).
+only), as every study does (`bandopt.studies.run`).
 """
 
-from experiments.estimate_mix import UNKNOWN_ONLY, Study, main as _run
-from experiments.estimate_shift import (
-    BASE,
-    COLUMNS,
-    GRID,
-    SHIFTS,
-    by_class,
-    variant_text,
-)
+from .._study import UNKNOWN_ONLY, Study
+from .._text import BASE, COLUMNS, GRID, SHIFTS, by_class, variant_text
 
 
 DEFAULT = "inversion-moon-mix-metric-narrow-shift-planck"
@@ -40,10 +31,10 @@ def readme_text(summary: dict) -> str:
         summary,
         DEFAULT,
         "## The estimator `bandopt evaluate` gives by default "
-        "(`results/estimate_defaults/`, `make estimate-defaults`)",
+        "(`results/estimate_defaults/`, `make study NAME=estimate-defaults`)",
         f"`{DEFAULT}` holds, in every prior it builds, both the shifted copies of "
-        "that prior's direct-emission LEDs (`make estimate-shift`) and the "
-        "library's modelled incandescent spectra (`make estimate-planck`; "
+        "that prior's direct-emission LEDs (`make study NAME=estimate-shift`) and the "
+        "library's modelled incandescent spectra (`make study NAME=estimate-planck`; "
         "modelled lamps used: yes, in that estimator only).",
         "without → with both",
     )
@@ -74,12 +65,4 @@ STUDY = Study(
     paired_columns=COLUMNS,
     extra=lambda records: {"by_class": by_class(records, (BASE, DEFAULT))},
 )
-"""The study `main` runs (`experiments.estimate_mix.Study`)."""
-
-
-def main(argv=None) -> int:
-    return _run(argv, STUDY)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+"""The study (`bandopt.studies.Study`)."""

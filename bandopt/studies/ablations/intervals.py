@@ -1,11 +1,11 @@
-"""Narrower 90 % intervals at the same coverage: the conformal unit (issue 12).
+"""Narrower 90 % intervals at the same coverage: the conformal unit.
 
 The inversion's 90 % interval is its posterior 5-95 % range widened by a
 split-conformal factor times a unit. Until now the unit was the posterior's
 half-width: a pixel whose posterior is broad gets a very wide interval, and
 one whose posterior sits on a wrong lamp needs a large factor, which every
 broad pixel then pays for. This scores `inversion-moon-mix-metric` (the
-estimator of `make estimate-noise`: blends in the prior, the Moon told, one
+estimator of `make study NAME=estimate-noise`: blends in the prior, the Moon told, one
 band-error model per metric; unit = half-width) against
 `inversion-moon-mix-metric-narrow`, the same fit whose unit is the
 half-width plus an offset chosen per metric from `INTERVAL_OFFSET_GRID`
@@ -18,12 +18,11 @@ folds of `make estimate`, paired by partition; and on unseen lamp types
 (recommended bands, partition 0, intervals calibrated on training classes
 held out in turn, as `bandopt evaluate` by default).
 
-    python -m experiments.estimate_intervals [--partitions 4] [--out DIR]
-        [--resume] [--only-partitions P ...] [--no-unseen]
+    make study NAME=estimate-intervals [ARGS="--resume ..."]
 
 Writes `records.jsonl`, `summary.json`, `intervals.png`, `manifest.json`
 and the `estimate-intervals` section of `results/README.md` (default output
-only), as `experiments.estimate_mix` does (`Study`). Measured lamps only
+only), as every study does (`bandopt.studies.run`). Measured lamps only
 score; the blends are built from each fit's training lamps only.
 """
 
@@ -31,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.estimate import _fmt, diff_cells
-from experiments.estimate_mix import UNKNOWN_ONLY, Study, main as _run
+from .._study import UNKNOWN_ONLY, Study
+from .._text import diff_cells, fmt_cell
 
 
 BASE, NARROW = "inversion-moon-mix-metric", "inversion-moon-mix-metric-narrow"
@@ -101,11 +100,12 @@ def _lowest_class(by_class: dict) -> str:
 def readme_text(summary: dict) -> str:
     lines = [
         "## Narrower 90 % intervals at the same coverage "
-        "(`results/estimate_intervals/`, `make estimate-intervals`)",
+        "(`results/estimate_intervals/`, `make study NAME=estimate-intervals`)",
         "",
         "The scenes, lamp partitions and folds of `make estimate`; surface "
         "unknown, the Moon told, blends in every prior, one band-error model per "
-        f"metric (as `make estimate-noise`); {summary['partitions']} partitions, "
+        "metric (as `make study NAME=estimate-noise`); "
+        f"{summary['partitions']} partitions, "
         "class-balanced over held-out measured lamps, mean ± SD over partitions. "
         "The interval is the posterior 5-95 % range widened by a conformal factor "
         f"times a unit. `{BASE}`: the unit is the posterior's half-width. "
@@ -127,7 +127,7 @@ def readme_text(summary: dict) -> str:
         )
         lines.append(
             f"| {r['band_set']} | {r['estimator']} | {cov} | "
-            + " | ".join(_fmt(r, f"{m}_width", nd) for m, _, nd in METRIC_UNITS)
+            + " | ".join(fmt_cell(r, f"{m}_width", nd) for m, _, nd in METRIC_UNITS)
             + " |"
         )
     lines += [
@@ -192,10 +192,10 @@ def readme_text(summary: dict) -> str:
 def figure(summary: dict, path: Path) -> None:
     """Mean interval width and coverage per band set, both units, mean ± SD
     over partitions; the nominal 0.90 marked."""
-    import matplotlib
+    import matplotlib  # plotting only: start-up time
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # after matplotlib.use("Agg")
 
     bands = list(dict.fromkeys(r["band_set"] for r in summary["rows"]))
     by = {(r["band_set"], r["estimator"]): r for r in summary["rows"]}
@@ -245,12 +245,4 @@ STUDY = Study(
     figure_name="intervals.png",
     extra=lambda records: {"coverage_by_width": coverage_by_width(records)},
 )
-"""The study `main` runs (`experiments.estimate_mix.Study`)."""
-
-
-def main(argv=None) -> int:
-    return _run(argv, STUDY)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+"""The study (`bandopt.studies.Study`)."""

@@ -1,10 +1,10 @@
-"""A band-error model per metric: LER, G and CCT each under its own (issue 12).
+"""A band-error model per metric: LER, G and CCT each under its own.
 
 The inversion scores each candidate lamp with the band error `σ_rel |y_b| +
 floor` (in units of the pixel's mean band radiance). `σ_rel` and the floor set
 how the bands are weighted: a floor well below `σ_rel |y|` weighs them by
 relative error, a floor above it nearly uniformly. One model for all three
-metrics is a trade-off: on the folds of `make estimate-mix`, LER is best
+metrics is a trade-off: on the folds of `make study NAME=estimate-mix`, LER is best
 estimated with the bands weighted nearly uniformly, G and CCT nearly by
 relative error. This scores `inversion-moon-mix` (the blends' inversion with
 the Moon told, one `σ_rel` chosen on inner folds, floor 0.001) against
@@ -18,19 +18,18 @@ partitions and folds of `make estimate`, paired by partition; and on unseen
 lamp types (recommended bands, partition 0) with the intervals `bandopt
 evaluate` gives by default.
 
-    python -m experiments.estimate_noise [--partitions 4] [--out DIR] [--resume]
-        [--only-partitions P ...] [--no-unseen]
+    make study NAME=estimate-noise [ARGS="--resume ..."]
 
 Writes `records.jsonl`, `summary.json`, `errors.png`, `manifest.json` and the
 `estimate-noise` section of `results/README.md` (default output only), as
-`experiments.estimate_mix` does (`Study`). Measured lamps only score; the
+every study does (`bandopt.studies.run`). Measured lamps only score; the
 blends are built from each fit's training lamps only and never score.
 """
 
 import dataclasses
 
-from experiments.estimate import diff_cells, where_lines
-from experiments.estimate_mix import UNKNOWN_ONLY, Study, main as _run, row_line
+from .._study import UNKNOWN_ONLY, Study
+from .._text import diff_cells, row_line, where_lines
 
 
 ONE, PER = "inversion-moon-mix", "inversion-moon-mix-metric"
@@ -51,12 +50,13 @@ STUDY = Study(
     "model vs one per metric (mean ± SD over partitions)",
     oracle=False,
 )
-"""The study `main` runs (`experiments.estimate_mix.Study`)."""
+"""The study (`bandopt.studies.Study`)."""
 
 
 def readme_text(summary: dict) -> str:
     lines = [
-        f"{STUDY.heading} (`results/estimate_noise/`, `make estimate-noise`)",
+        f"{STUDY.heading} (`results/estimate_noise/`, "
+        "`make study NAME=estimate-noise`)",
         "",
         "The scenes, lamp partitions and folds of `make estimate`; surface "
         "unknown, the Moon told, blends in every prior (as `bandopt evaluate`); "
@@ -112,11 +112,3 @@ def readme_text(summary: dict) -> str:
 STUDY = dataclasses.replace(
     STUDY, readme=readme_text, description=__doc__.splitlines()[0]
 )
-
-
-def main(argv=None) -> int:
-    return _run(argv, STUDY)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,4 +1,4 @@
-"""More measured lamps in the prior: the IES TM-30-15 set (issue 12).
+"""More measured lamps in the prior: the IES TM-30-15 set.
 
 `make estimate-library` found that what stands between `bandopt evaluate`'s
 estimate and issue 12's goal is the library's coverage of lamp kinds: with
@@ -16,19 +16,21 @@ reference sensors, surface unknown; and on unseen lamp types (recommended
 bands, partition 0, intervals calibrated on training classes held out in
 turn), where the TM-30 lamps of the held-out class leave the prior too.
 
-    python -m experiments.estimate_tm30 [--partitions 4] [--out DIR]
-        [--resume] [--only-partitions P ...] [--no-unseen]
+    make study NAME=estimate-tm30 [ARGS="--resume ..."]
 
 Writes `records.jsonl`, `summary.json`, `errors.png`, `manifest.json` and
 the `estimate-tm30` section of `results/README.md` (default output only), as
-`experiments.estimate_mix` does (`Study`).
+every study does (`bandopt.studies.run`).
 """
 
 from collections import Counter
 
-from experiments.estimate_defaults import DEFAULT, STUDY as DEFAULTS
-from experiments.estimate_mix import UNKNOWN_ONLY, Study, main as _run
-from experiments.estimate_shift import COLUMNS, by_class, variant_text
+from ...datasets.lamps import library
+from ...inversion import tm30_lamps
+from ...spectra import GRID_1NM
+from .._study import UNKNOWN_ONLY, Study
+from .._text import COLUMNS, by_class, variant_text
+from .defaults import DEFAULT, STUDY as DEFAULTS
 
 
 TM30 = "inversion-moon-mix-metric-narrow-shift-planck-tm30"
@@ -37,7 +39,7 @@ prior (`bandopt.inversion.TM30_ESTIMATOR`)."""
 
 
 (_DEFAULT_UNSEEN,) = DEFAULTS.unseen
-"""`make estimate-defaults`' unseen-types run of evaluate's estimator."""
+"""`make study NAME=estimate-defaults`' unseen-types run of evaluate's estimator."""
 
 
 def tm30_counts() -> dict:
@@ -45,10 +47,6 @@ def tm30_counts() -> dict:
     many of the set's measured entries the library's deduplication removed
     (copies of library lamps)."""
     # lazy: JAX is configured by the study's main before the library is built
-    from bandopt.datasets.lamps import library
-    from bandopt.inversion import tm30_lamps
-    from bandopt.spectra import GRID_1NM
-
     lamps = tm30_lamps(GRID_1NM)
     lib = library(tm30=True)
     removed = sum(
@@ -70,7 +68,7 @@ def readme_text(summary: dict) -> str:
         summary,
         TM30,
         "## More measured lamps in the prior: the IES TM-30-15 set "
-        "(`results/estimate_tm30/`, `make estimate-tm30`)",
+        "(`results/estimate_tm30/`, `make study NAME=estimate-tm30`)",
         f"`{TM30}` also holds, in every prior it builds, the measured lamps of the "
         "IES TM-30-15 source library that the library lacks (`IES2015`, vendored "
         "from LuxPy; classified and deduplicated by the library's rules); they "
@@ -113,12 +111,4 @@ STUDY = Study(
         "tm30": tm30_counts(),
     },
 )
-"""The study `main` runs (`experiments.estimate_mix.Study`)."""
-
-
-def main(argv=None) -> int:
-    return _run(argv, STUDY)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+"""The study (`bandopt.studies.Study`)."""

@@ -1,4 +1,4 @@
-"""Modelled incandescent spectra (Planck's law) in the prior (issue 12).
+"""Modelled incandescent spectra (Planck's law) in the prior.
 
 An incandescent lamp is a thermal radiator: its family has physics that no
 measured class carries. Without it, a halogen lamp is named by its nearest
@@ -16,24 +16,20 @@ partition 0, intervals calibrated on training classes held out in turn, as
 `bandopt evaluate`), without and with them; and how far each measured
 halogen lamp's LER and G lie from a Planck radiator at its CCT.
 
-    python -m experiments.estimate_planck [--partitions 4] [--out DIR]
-        [--resume] [--only-partitions P ...] [--no-unseen]
+    make study NAME=estimate-planck [ARGS="--resume ..."]
 
 Writes `records.jsonl`, `summary.json`, `errors.png`, `manifest.json` and
 the `estimate-planck` section of `results/README.md` (default output only),
-as `experiments.estimate_mix` does (`Study`).
+as every study does (`bandopt.studies.run`).
 """
 
 import numpy as np
 
-from experiments.estimate_mix import UNKNOWN_ONLY, Study, main as _run
-from experiments.estimate_shift import (
-    BASE,
-    COLUMNS,
-    GRID,
-    by_class,
-    variant_text,
-)
+from ... import photometry
+from ...datasets.lamps import library
+from ...spectra import GRID_1NM, planck_radiance
+from .._study import UNKNOWN_ONLY, Study
+from .._text import BASE, COLUMNS, GRID, by_class, variant_text
 
 
 PLANCK = "inversion-moon-mix-metric-narrow-planck"
@@ -45,10 +41,6 @@ def planck_match() -> dict:
     own CCT, on the library grid: LER and G differences (lamp − Planck),
     their mean |difference| and range: how well the model matches
     measurement."""
-    from bandopt import photometry
-    from bandopt.datasets.lamps import library
-    from bandopt.spectra import GRID_1NM, planck_radiance
-
     grid = np.asarray(GRID_1NM, float)
     lib = library(wavelength_nm=grid).select(scored_only=True)
     idx = [i for i, r in enumerate(lib.records) if r.level1 == "incandescent"]
@@ -75,7 +67,7 @@ def readme_text(summary: dict) -> str:
         summary,
         PLANCK,
         "## Modelled incandescent spectra in the prior "
-        "(`results/estimate_planck/`, `make estimate-planck`)",
+        "(`results/estimate_planck/`, `make study NAME=estimate-planck`)",
         f"`{PLANCK}` also holds, in every prior it builds, the library's modelled "
         "incandescent spectra (Planck's law at 2400-3200 K in 200 K steps, and "
         "their blends with measured halogen lamps): modelled spectra train, never "
@@ -118,12 +110,4 @@ STUDY = Study(
         "planck_match": planck_match(),
     },
 )
-"""The study `main` runs (`experiments.estimate_mix.Study`)."""
-
-
-def main(argv=None) -> int:
-    return _run(argv, STUDY)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+"""The study (`bandopt.studies.Study`)."""

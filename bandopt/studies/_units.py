@@ -1,0 +1,107 @@
+"""The units a study is made of and kept by: band sets by name, the
+records file a resumable run appends each finished (partition, band set)
+unit to, and the command line every partitioned study shares."""
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from ..sensor import BandSet
+from ..sensor.reference import resolve
+
+
+CONTIGUOUS = "contiguous-"
+"""Prefix of a band-set name "contiguous-N" (`band_set`)."""
+
+
+RECOMMENDED = Path("results/search/recommended_bands.json")
+
+
+def log(msg: str, study: str = "study") -> None:
+    """Progress line on stderr, `[study HH:MM:SS] msg`."""
+    print(f"[{study} {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
+
+
+def load_records(rec_path: Path, *, keep: bool, say=None) -> tuple[list, set]:
+    """Records of a resumable run and its finished (partition, band set)
+    units. Without `keep` the file is deleted first (results are
+    recomputed, not replayed); an unreadable line (an interrupted write) is
+    dropped with a message through `say` (default `log`)."""
+    say = log if say is None else say
+    if rec_path.is_file() and not keep:
+        rec_path.unlink()
+    records, done = [], set()
+    if rec_path.is_file():
+        for i, line in enumerate(rec_path.read_text().splitlines()):
+            try:
+                r = json.loads(line)
+            except json.JSONDecodeError:
+                say(f"{rec_path}:{i + 1}: unreadable line dropped (interrupted write)")
+                continue
+            records.append(r)
+            done.add((r["partition"], r["band_set"]))
+    return records, done
+
+
+def band_set(name: str):
+    """A study's band set by name: "recommended" (`make run`'s bands),
+    "contiguous-N" (N equal-width bands tiling the scenes' 380-900 nm,
+    `BandSet.contiguous`) or a reference sensor."""
+    if name == "recommended":
+        if not RECOMMENDED.is_file():
+            raise SystemExit(f"{RECOMMENDED}: missing; run `make run` first.")
+        return BandSet.from_json(RECOMMENDED)
+    if name.startswith(CONTIGUOUS):
+        count = name[len(CONTIGUOUS) :]
+        if not count.isdigit():
+            raise ValueError(
+                f"band set {name!r}: expected {CONTIGUOUS}N, N an integer."
+            )
+        return BandSet.contiguous(int(count))
+    return resolve(name).build()
+
+
+def keep_unit(rec_path: Path, recs: list[dict]) -> list[dict]:
+    """Append a finished unit's records to `rec_path` (a resumable run keeps
+    them whatever fails later) and return them."""
+    with rec_path.open("a") as fh:
+        for r in recs:
+            fh.write(json.dumps(r) + "\n")
+    return recs
+
+
+def partition_args(argv, description: str, out: str, unseen: bool = True):
+    """The command line of a partitioned, resumable study: `--partitions`,
+    `--out` (default `out`), `--resume`, `--only-partitions` and, with
+    `unseen`, `--no-unseen`; (args, the partitions to compute)."""
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument("--partitions", type=int, default=4, help="lamp partitions")
+    ap.add_argument("--out", default=None, help=f"output (default {out})")
+    ap.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep finished (partition, band set) units of records.jsonl",
+    )
+    if unseen:
+        ap.add_argument("--no-unseen", action="store_true", help="skip unseen types")
+    ap.add_argument(
+        "--only-partitions",
+        type=int,
+        nargs="+",
+        default=None,
+        metavar="P",
+        help="compute only these partitions' units (to run partitions in "
+        "parallel processes with their own --out; concatenate their "
+        "records.jsonl and summarise with --resume)",
+    )
+    args = ap.parse_args(argv)
+    if args.partitions < 1:
+        ap.error("--partitions must be >= 1.")
+    only = args.only_partitions
+    if only is not None and any(not 0 <= p < args.partitions for p in only):
+        ap.error(f"--only-partitions {only}: each must be in 0..{args.partitions - 1}.")
+    if only is not None and args.out is None:
+        ap.error("--only-partitions needs its own --out (a partial summary).")
+    return args, range(args.partitions) if only is None else only

@@ -1,0 +1,136 @@
+"""Mixtures in the prior: what fills the gaps between the library's lamps.
+
+The inversion's posterior is a weighted set of measured training lamps. Told
+the test lamp itself (in its prior), its error on the scenes of `make
+estimate` drops to ~0 (0.04 lm/W): the scene (surface, atmosphere, Moon) is
+not what limits it; the prior's coverage of lamp space is. This scores the
+told-Moon inversion (`inversion-moon`) against the same inversion whose
+priors also hold pairwise same-class mixtures of their own lamps
+(`inversion-moon-mix`, `bandopt.inversion.mixture_lamps`), on the scenes,
+lamp partitions and folds of `make estimate`, for the recommended bands and
+the reference sensors (same estimators for every band set), and on unseen
+lamp types (each scored class held out; recommended bands, partition 0).
+The other studies run the same machinery (`bandopt.studies.run`) on their
+own configuration.
+
+    make study NAME=estimate-mix [ARGS="--resume ..."]
+
+Writes `records.jsonl` (one line per test lamp; resumable per (partition,
+band set)), `summary.json` (class-balanced MAE, coverage and level-1 per
+band set, estimator and surface mode, mean ± SD over partitions; paired
+differences: mix − no mix per band set, reference − recommended per
+estimator; the unseen-types study), `errors.png`, `manifest.json` and the
+`estimate-mix` section of `results/README.md` (default output only).
+Measured lamps only score; the mixtures are built from each fit's training
+lamps only and never score.
+"""
+
+from .._study import BAND_SETS, Study
+from .._text import diff_cells, row_line, where_lines
+
+
+ESTIMATORS = ("inversion-moon", "inversion-moon-mix")
+"""The told-Moon inversion without and with mixtures in its priors."""
+PAIRS = (("inversion-moon-mix", "inversion-moon"),)
+"""(variant, base) estimators compared paired by partition."""
+UNSEEN = (
+    ("inversion-moon", 0, "lamps", "error"),
+    ("inversion-moon-mix", None, "lamps", "error"),
+    ("inversion-moon-mix-loco", None, "classes", "error"),
+)
+"""Unseen-types runs: label, mixtures (None: `MIX_PAIRS`), interval
+calibration (`fit_inversion(calibration=)`; "classes" with mixtures is what
+`bandopt evaluate` does by default) and `σ_rel` rule (`SIGMA_RULES`;
+"per-metric" also chooses the floor from `FLOOR_GRID`); optionally a fifth,
+the interval offsets (`fit_inversion(interval_offsets=)`; several: the
+offset-0 intervals of the same fit are reported too, as "LABEL (offset 0)"),
+and a sixth, further keyword arguments of `leave_one_class_out` (e.g.
+`{"peak_shifts": ...}`, `{"planck": True}`; default none)."""
+
+
+def readme_text(summary: dict) -> str:
+    lines = [
+        "## Mixtures in the prior (`results/estimate_mix/`, "
+        "`make study NAME=estimate-mix`)",
+        "",
+        "The scenes, lamp partitions and folds of `make estimate`; class-balanced "
+        f"MAE, mean ± SD over {summary['partitions']} partitions; measured lamps "
+        "only score. Both estimators are told the Moon's brightness. "
+        "`inversion-moon-mix` also holds, in every prior it builds, pairwise "
+        f"mixtures of that prior's own lamps of one class (up to "
+        f"{summary['mix_pairs']} pairs per class, flux fractions "
+        f"{', '.join(f'{f:g}' for f in summary['mix_fractions'])}). With the "
+        "test lamp itself in the prior the error is ~0 (partition 0, fold 0: "
+        f"{summary['oracle']['LER']:.2f} lm/W, G {summary['oracle']['G']:.3f}): "
+        "the prior's coverage of lamp space, not the scene, limits the estimate. "
+        "Coverage: fraction of true values inside the 90 % intervals. Generated "
+        "from `summary.json`.",
+        "",
+        "| band set | surface | estimator | LER [lm/W] | G | CCT [K] | coverage "
+        "LER/G/CCT | level-1 right |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    lines += [row_line(r) for r in summary["rows"]]
+    lines += [
+        "",
+        "Paired by partition (positive = the first is worse): mixtures minus "
+        "none, same band set and surface; reference minus recommended, same "
+        "estimator and surface.",
+        "",
+        "| compared | estimator | surface | LER [lm/W] | G | CCT [K] |",
+        "|---|---|---|---|---|---|",
+    ]
+    for p in summary["paired"]:
+        what = {
+            "inversion-moon": f"{p['band_set']}: mix − no mix",
+            "inversion-moon-mix": f"{p['band_set']}: per-metric − one error model",
+        }.get(p.get("vs"), f"{p['band_set']} − {p['vs']}")
+        lines.append(
+            f"| {what} | {p['estimator']} | {p['surface']} | "
+            + " | ".join(diff_cells(p))
+            + " |"
+        )
+    unseen = summary.get("unseen_types") or {}
+    if any(k.endswith("-loco") for k in unseen):
+        lines += [
+            "",
+            "Unseen types: `-loco` calibrates the 90 % intervals on training "
+            "classes held out in turn instead of held-out lamps (`bandopt "
+            "evaluate`'s default, `--intervals any-type`, with the blends: "
+            "`inversion-moon-mix-loco`); the estimates are the same.",
+        ]
+    for label, u in unseen.items():
+        o = u["overall"]
+        lines += [
+            "",
+            f"Unseen lamp types (recommended bands, `{label}`, partition 0; each "
+            "scored class held out in turn): coverage LER "
+            f"{o['LER_covered']:.2f}, G {o['G_covered']:.2f}, CCT "
+            f"{o['CCT_covered']:.2f}; level-1 type right {o['level1_correct']:.2f}; "
+            f"unexplained {o['unexplained']:.2f}; out of range {o['out_of_range']}.",
+        ]
+        lines += where_lines(u.get("by_class"))
+    return "\n".join(lines) + "\n"
+
+
+TITLE = (
+    "Held-out measured lamps, Moon told: prior of measured lamps vs with "
+    "same-class mixtures (mean ± SD over partitions)"
+)
+"""The figure's title (a summary's `"title"` replaces it)."""
+
+
+STUDY = Study(
+    name="estimate-mix",
+    out="results/estimate_mix",
+    heading="## Mixtures in the prior",
+    band_sets=dict(BAND_SETS),
+    estimators=ESTIMATORS,
+    pairs=PAIRS,
+    unseen=UNSEEN,
+    title=TITLE,
+    oracle=True,
+    readme=readme_text,
+    description=__doc__.splitlines()[0],
+)
+"""The study (`bandopt.studies.Study`)."""

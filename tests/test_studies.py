@@ -1,0 +1,90 @@
+"""Studies as configurations (`bandopt.studies`): the registry, `make study`,
+and one study run end to end through the machinery on a tiny scenario set:
+records, summary, figure and manifest written, and a resumed run recomputes
+nothing and writes the same summary. Every registered study's committed
+README section is what its configuration generates from its committed
+summary."""
+
+import dataclasses
+import json
+from pathlib import Path
+
+import pytest
+
+from bandopt.results import README, RESULTS_DIR
+from bandopt.studies import STUDIES, Study, run
+
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_registry_names_every_ablation_once_by_any_spelling():
+    assert len(STUDIES) >= 7
+    for name, study in STUDIES.items():
+        assert isinstance(study, Study) and study.name == name
+        assert STUDIES[name.upper().replace("-", "_")] is study
+        assert study.out == f"results/{name.replace('-', '_')}"
+        assert set(study.estimators) >= {v for pair in study.pairs for v in pair}
+        assert study.band_sets and study.title and study.description
+    with pytest.raises(ValueError, match="Unknown study 'no-such'"):
+        STUDIES.resolve("no-such")
+
+
+@pytest.mark.parametrize("name", list(STUDIES))
+def test_committed_section_is_generated_by_the_configuration(name):
+    """Results are recomputed, not replayed: the committed README section of
+    each study is its configuration's text of its committed summary."""
+    study = STUDIES[name]
+    summary = json.loads((ROOT / study.out / "summary.json").read_text())
+    readme = (RESULTS_DIR / README).read_text()
+    start, end = f"<!-- {name}:start -->", f"<!-- {name}:end -->"
+    section = readme[readme.index(start) + len(start) : readme.index(end)]
+    assert section.strip() == study.readme(summary).strip()
+
+
+def test_make_study_lists_and_refuses_an_unknown_name(capsys):
+    from experiments import study
+
+    assert study.main([]) == 0
+    out = capsys.readouterr().out
+    assert all(name in out for name in STUDIES)
+    assert study.main(["no-such-study"]) == 2
+    assert "Unknown study 'no-such-study'" in capsys.readouterr().err
+    recipe = (ROOT / "Makefile").read_text().split("\nstudy:")[1].split("\n\n")[0]
+    assert "experiments.study $(NAME) $(ARGS)" in recipe
+
+
+def test_a_tiny_study_runs_through_the_machinery_and_resumes(tmp_path):
+    study = dataclasses.replace(
+        STUDIES["estimate-mix"],
+        preset="tiny",
+        atmospheres="none",
+        band_sets={"sdgsat-1": ("unknown",)},
+        oracle=False,
+    )
+    argv = ["--partitions", "2", "--out", str(tmp_path), "--no-unseen"]
+    assert run(study, argv) == 0
+    names = {p.name for p in tmp_path.iterdir()}
+    assert {"records.jsonl", "summary.json", "errors.png", "manifest.json"} <= names
+    records = [
+        json.loads(x) for x in (tmp_path / "records.jsonl").read_text().splitlines()
+    ]
+    assert {(r["partition"], r["band_set"]) for r in records} == {
+        (0, "sdgsat-1"),
+        (1, "sdgsat-1"),
+    }
+    assert {r["estimator"] for r in records} == set(study.estimators)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    rows = {r["estimator"]: r for r in summary["rows"]}
+    assert set(rows) == set(study.estimators)
+    for r in rows.values():  # class-balanced MAE with its spread over partitions
+        assert r["LER"] > 0 and r["LER_sd"] is not None
+    (paired,) = [p for p in summary["paired"] if p.get("vs") == study.pairs[0][1]]
+    assert paired["estimator"] == study.pairs[0][0]
+    manifest = json.loads((tmp_path / "manifest.json").read_text())
+    assert manifest["config"]["study"] == "estimate-mix"
+    before = (tmp_path / "summary.json").read_bytes()
+    lines = (tmp_path / "records.jsonl").read_text()
+    assert run(study, [*argv, "--resume"]) == 0  # nothing left to compute
+    assert (tmp_path / "records.jsonl").read_text() == lines
+    assert (tmp_path / "summary.json").read_bytes() == before
