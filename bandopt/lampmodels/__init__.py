@@ -71,9 +71,26 @@ used them must say so. `log_prior(cal, z)` gives the calibrated Gaussian
 log-density for use as an inversion prior.
 
 Validation is in `experiments/lamp_models.py` (leave-one-lamp-out per class).
+
+Modules: `_families` (the line lists, the bounded parameters, the five
+families and `spectrum`), `_fit` (the instrument's sampling and `fit`) and
+`_calibrate` (`Calibration`, `calibrate` and `sample_library` on the library);
+this package re-exports their names.
 """
 
 from ..spectra import GRID_1NM as GRID_1NM
+from ._calibrate import (
+    SHRINKAGE as SHRINKAGE,
+    Z_CLIP as Z_CLIP,
+    Calibration as Calibration,
+    calibrate as calibrate,
+    calibrate_fits as calibrate_fits,
+    fit_library_lamp as fit_library_lamp,
+    log_prior as log_prior,
+    model_spectra as model_spectra,
+    sample_library as sample_library,
+    sample_z as sample_z,
+)
 from ._families import (
     FAMILIES as FAMILIES,
     FAMILY_OF_CLASS as FAMILY_OF_CLASS,
@@ -90,44 +107,36 @@ from ._families import (
     K_767 as K_767,
     LI_671 as LI_671,
     LPS as LPS,
-    MAX_STEPS as MAX_STEPS,
     MERCURY as MERCURY,
     METAL_HALIDE as METAL_HALIDE,
-    N_STARTS as N_STARTS,
     NA_498 as NA_498,
     NA_515 as NA_515,
     NA_568 as NA_568,
     NA_615 as NA_615,
     NA_819 as NA_819,
     NA_D as NA_D,
-    NIR_MEASURED_NM as NIR_MEASURED_NM,
     PC_LED as PC_LED,
     REFERENCE as REFERENCE,
-    RIDGE as RIDGE,
-    SHRINKAGE as SHRINKAGE,
     TL_535 as TL_535,
-    Z_CLIP as Z_CLIP,
-    Calibration as Calibration,
     Family as Family,
-    Fit as Fit,
     Param as Param,
     _planck as _planck,
-    calibrate as calibrate,
-    calibrate_fits as calibrate_fits,
     family_of as family_of,
-    fit as fit,
-    fit_library_lamp as fit_library_lamp,
-    log_prior as log_prior,
-    model_spectra as model_spectra,
-    native_step_nm as native_step_nm,
     per_lumen as per_lumen,
-    sample_library as sample_library,
-    sample_z as sample_z,
-    sampling_matrix as sampling_matrix,
     spectrum as spectrum,
     to_values as to_values,
     to_z as to_z,
     visible_normalised as visible_normalised,
+)
+from ._fit import (
+    MAX_STEPS as MAX_STEPS,
+    N_STARTS as N_STARTS,
+    NIR_MEASURED_NM as NIR_MEASURED_NM,
+    RIDGE as RIDGE,
+    Fit as Fit,
+    fit as fit,
+    native_step_nm as native_step_nm,
+    sampling_matrix as sampling_matrix,
 )
 
 
