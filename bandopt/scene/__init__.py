@@ -75,39 +75,51 @@ terms are contracted with (`T_dir + k T_dif`, one array per atmosphere), and a
 background surface adds one (lamp, atmosphere, band) and one (atmosphere, moon,
 band) contraction. A term a scenario set lacks (no Moon, no uplight, no fire,
 no atmosphere, uniform neighbourhood) is `None` and costs nothing.
+
+Modules: `_conditions` (lighting classes, atmospheres, neighbourhoods),
+`_uplight` (the luminaires' uplight factor from Illumina's profiles),
+`_model` (the factor arrays, their contraction into band terms and the
+scenes' band radiance) and `_build` (`ScenarioSet`, `build_scenarios`);
+this package re-exports their names.
 """
 
 from ..spectra import GRID_1NM as GRID_1NM, planck_radiance as planck_radiance
 from ._build import (
-    _LOP_DIR as _LOP_DIR,
     DEFAULT_ATMOSPHERES as DEFAULT_ATMOSPHERES,
     DEFAULT_CLASSES as DEFAULT_CLASSES,
     DEFAULT_MOONS as DEFAULT_MOONS,
-    DEFAULT_NEIGHBOURHOOD as DEFAULT_NEIGHBOURHOOD,
     DEFAULT_SURFACES as DEFAULT_SURFACES,
+    PHYSICS_VERSION as PHYSICS_VERSION,
+    MixSpec as MixSpec,
+    ScenarioSet as ScenarioSet,
+    build_scenarios as build_scenarios,
+    mix_label as mix_label,
+)
+from ._conditions import (
+    DEFAULT_NEIGHBOURHOOD as DEFAULT_NEIGHBOURHOOD,
     LIGHTING_CLASSES as LIGHTING_CLASSES,
     NEIGHBOURHOODS as NEIGHBOURHOODS,
     NO_ATMOSPHERE as NO_ATMOSPHERE,
-    PHYSICS_VERSION as PHYSICS_VERSION,
     Q0_DRY_R3_PER_SR as Q0_DRY_R3_PER_SR,
-    UPLIGHT_MODELS as UPLIGHT_MODELS,
-    UPLIGHT_PROFILE_PERCENT as UPLIGHT_PROFILE_PERCENT,
     AtmosphereSpec as AtmosphereSpec,
+    Neighbourhood as Neighbourhood,
+    class_illuminance_lx as class_illuminance_lx,
+    resolve_neighbourhood as resolve_neighbourhood,
+)
+from ._model import (
     BandTerms as BandTerms,
     Factors as Factors,
-    MixSpec as MixSpec,
-    Neighbourhood as Neighbourhood,
-    ScenarioSet as ScenarioSet,
     band_terms as band_terms,
     band_weights as band_weights,
-    build_scenarios as build_scenarios,
-    class_illuminance_lx as class_illuminance_lx,
     fire_scenes as fire_scenes,
     full_toa_radiance as full_toa_radiance,
     lamp_scenes as lamp_scenes,
-    mix_label as mix_label,
     moon_scenes as moon_scenes,
-    resolve_neighbourhood as resolve_neighbourhood,
+)
+from ._uplight import (
+    _LOP_DIR as _LOP_DIR,
+    UPLIGHT_MODELS as UPLIGHT_MODELS,
+    UPLIGHT_PROFILE_PERCENT as UPLIGHT_PROFILE_PERCENT,
     uplight_factor as uplight_factor,
     uplight_profiles as uplight_profiles,
 )
