@@ -550,8 +550,9 @@ def _physics(
 ) -> dict:
     """Scene physics recorded in a side's manifest and result files (every
     value of `PHYSICS_KEYS` found at any depth). When neither a neighbourhood
-    nor an uplight model is recorded: what `bandopt/scene.py` at the manifest's
-    commit defaults to, or `NOT_RECORDED_PRE11` when it has no such option.
+    nor an uplight model is recorded: what the scene model at the manifest's
+    commit defaults to (`_scene_source`), or `NOT_RECORDED_PRE11` when it has
+    no such option.
     When the manifest's commit is not in the repository (a rebased or lost
     branch), the manifest's creation time `created` (ISO 8601) is compared
     with the commit that first gave scene.py its neighbourhood option: a
@@ -578,10 +579,7 @@ def _physics(
         return out
     scene = None
     if commit and repo is not None:
-        try:
-            scene = _git(repo, "show", f"{commit}:bandopt/scene.py")
-        except RuntimeError:
-            scene = None
+        scene = _scene_source(repo, commit)
     if scene is None:
         text = "not recorded (manifest commit not in this repository)"
         first = _first_physics_commit(repo)
@@ -608,6 +606,22 @@ def _physics(
     )
     out["summary"] = text + version + ratio
     return out
+
+
+def _scene_source(repo: Path, commit: str) -> str | None:
+    """The scene model's source at `commit`: `bandopt/scene.py`, or the modules
+    of the package `bandopt/scene/` that replaced it, joined; None when the
+    commit is not in the repository or has neither."""
+    try:
+        return _git(repo, "show", f"{commit}:bandopt/scene.py")
+    except RuntimeError:
+        pass
+    try:
+        names = _git(repo, "ls-tree", "--name-only", commit, "bandopt/scene/")
+        files = [n for n in names.splitlines() if n.endswith(".py")]
+        return "\n".join(_git(repo, "show", f"{commit}:{n}") for n in files) or None
+    except RuntimeError:
+        return None
 
 
 def _utc(stamp: str) -> datetime.datetime:

@@ -13,7 +13,7 @@ from bandopt.radiometry import (
     load_band_set,
     measure,
 )
-from bandopt.radiometry._report import recommend_bits
+from bandopt.radiometry._tables import recommend_bits
 from experiments.radiometry import load_band_set as load_ours, run
 
 
