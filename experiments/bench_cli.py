@@ -1,4 +1,4 @@
-"""Benchmark of the command line (issue 15): start-up of a listing and the
+"""Benchmark of the command line: start-up of a listing and the
 memory of reading a large spectrum file, against the code before issue 15.
 
 Run:   python -m experiments.bench_cli [--rows 5000000] [--repeat 3]

@@ -1,4 +1,4 @@
-"""Benchmark of the forward model (issue 4): contraction speed and grid/crop error.
+"""Benchmark of the forward model: contraction speed and grid/crop error.
 
 Run:   python -m experiments.bench_forward [--quick]
 Writes results/bench/forward.json (+ manifest.json beside it).

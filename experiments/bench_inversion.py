@@ -1,4 +1,4 @@
-"""Benchmark of the physics-based inversion (issue 12): time per pixel, batched.
+"""Benchmark of the physics-based inversion: time per pixel, batched.
 
 Run:   python -m experiments.bench_inversion [--quick]
 Writes results/bench/inversion.json (+ inversion_manifest/manifest.json).

@@ -1,4 +1,4 @@
-"""Lamp-type classification experiment (issue 6): `python -m experiments.classify`.
+"""Lamp-type classification experiment: `python -m experiments.classify`.
 
 Writes `results/classify/`:
 

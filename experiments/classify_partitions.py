@@ -1,4 +1,4 @@
-"""Lamp-type classification of fixed designs over lamp partitions (issue 12):
+"""Lamp-type classification of fixed designs over lamp partitions:
 `python -m experiments.classify_partitions`.
 
 Scores FIXED band sets -- the classification recommendation, the "spectral"

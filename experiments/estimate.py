@@ -1,4 +1,4 @@
-"""Estimators of LER, G and CCT on lamps the estimator has never seen (issue 12).
+"""Estimators of LER, G and CCT on lamps the estimator has never seen.
 
 For each band set (our recommended design and reference sensors), each lamp
 partition (fold seeds; the same nested, lamp-grouped, class-stratified folds

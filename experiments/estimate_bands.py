@@ -1,4 +1,4 @@
-"""How many bands the goal needs: evaluate's estimator on contiguous bands (issue 12).
+"""How many bands the goal needs: evaluate's estimator on contiguous bands.
 
 `bandopt evaluate`'s estimator (`inversion-moon-mix-metric-narrow-shift-planck`,
 surface unknown, the Moon told) misses issue 12's goal (5 lm/W, G 0.10,

@@ -1,4 +1,4 @@
-"""How much of the held-out error is the library's coverage (issue 12).
+"""How much of the held-out error is the library's coverage.
 
 `make study NAME=estimate-defaults` scores `bandopt evaluate`'s estimator on lamps the
 library does not hold: each outer fold's test lamps are left out of its

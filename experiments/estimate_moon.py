@@ -1,4 +1,4 @@
-"""Where the estimate's G error comes from: the Moon (issue 12).
+"""Where the estimate's G error comes from: the Moon.
 
 `make estimate` scores the recommended bands on the band search's scenario
 preset ("search": 4 surfaces x 2 atmospheres x Moon none/full x P1/P6, no

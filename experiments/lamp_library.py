@@ -1,4 +1,4 @@
-"""The enlarged lamp library (issue 11): counts before/after, NIR validation,
+"""The enlarged lamp library: counts before/after, NIR validation,
 line-position checks of the undocumented color-pollution tables, build time.
 
 Run:   python -m experiments.lamp_library [--before COMMIT]

@@ -1,4 +1,4 @@
-"""Physical lamp models (issue 11): fit quality and leave-one-lamp-out validation
+"""Physical lamp models: fit quality and leave-one-lamp-out validation
 against the measured lamps of each class.
 
 Run:   python -m experiments.lamp_models [--classes hps lps ...] [--samples 200]

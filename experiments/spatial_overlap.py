@@ -1,4 +1,4 @@
-"""Lamp-type identification where two lamp types share pixels, per GSD (issue 8).
+"""Lamp-type identification where two lamp types share pixels, per GSD.
 
 Run:   python -m experiments.spatial_overlap [--quick]
 Writes results/spatial/overlap.{json,csv,png} and overlap_manifest/manifest.json.

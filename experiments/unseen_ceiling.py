@@ -1,4 +1,4 @@
-"""Ceiling of the level-1 family of unseen lamp types (issue 12).
+"""Ceiling of the level-1 family of unseen lamp types.
 
 Issue 12 asks that, for lamp types the library has never seen (each scored
 level-2 class held out in turn), the level-1 family (led, hid, fluorescent,

@@ -102,8 +102,7 @@ def evaluate_band_set(
     inversion only, default neither).
     With `modelled_per_class` > 0, `config` says `modelled_per_class` and
     the classes that got lamps in each outer fold (`modelled_lamps`); with
-    the default 0 the result is byte for byte what it was before the option
-    existed (no such keys: no modelled lamp was used).
+    the default 0 it has no such keys (no modelled lamp was used).
 
     `train_rows`/`test_rows`: optional boolean row masks (conditions) applied
     on top of the lamp splits. `radiance`: precomputed `(n, b)` (then `bands`
@@ -316,7 +315,9 @@ def evaluate_band_set(
         "n_outer": len(splits),
         "n_inner": len(splits[0].inner),
     }
-    if modelled_per_class:  # the default's config is as before: no such keys
+    if (
+        modelled_per_class
+    ):  # the default adds no key, so its config (and cache key) is unchanged
         config["modelled_per_class"] = int(modelled_per_class)
         config["modelled_lamps"] = _modelled_config(
             splits, extra, modelled_per_class, modelled_classes, seed

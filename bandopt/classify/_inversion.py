@@ -224,11 +224,11 @@ def evaluate_inversion(
     flag). `surface_mode` and `modelled_per_class`: see the module
     docstring; `config` records both (`surface`; with modelled lamps
     `modelled_per_class` and per fold the classes that got them, with the
-    default 0 no such keys, the config as before). `moon_known`: the
+    default 0 no such keys, the config without them). `moon_known`: the
     inversion is told each row's Moon brightness (`table_moon`, as
     `bandopt.inversion.MOON_ESTIMATOR`) in its inner folds and on the test
     pixels instead of fitting it; `config` then says `"moon": "known per
-    pixel"` (default False: fitted, no such key, the config as before).
+    pixel"` (default False: fitted, no such key, the config without them).
     `mixtures`: pairwise same-class blends of each prior's own lamps in the
     prior, up to that many pairs per class (`bandopt.inversion.mixture_lamps`;
     default 0: none, no such key); `config["mixtures"]` says how many.
@@ -238,7 +238,7 @@ def evaluate_inversion(
     LEDs shifted by these (`fit_inversion(peak_shifts=)`), as `bandopt
     evaluate` has by default; `config` then says `"modelled_in_prior"` (the
     Planck ids) and `"peak_shifts_nm"` (defaults False and (): neither, no
-    such keys, the config as before)."""
+    such keys, the config without them)."""
     surface_mode = validate_method(surface_mode, inv_mod.SURFACE_MODES, "surface_mode")
     if modelled_per_class < 0:
         raise ValueError(f"modelled_per_class must be >= 0 (got {modelled_per_class}).")
@@ -372,7 +372,9 @@ def evaluate_inversion(
         "n_outer": len(splits),
         "n_inner": len(splits[0].inner),
     }
-    if moon_known:  # the default's config is as before: no such key
+    if (
+        moon_known
+    ):  # the default adds no key, so its config (and cache key) is unchanged
         config["moon"] = "known per pixel"
     if mixtures:  # likewise
         config["mixtures"] = int(mixtures)
@@ -380,7 +382,9 @@ def evaluate_inversion(
         config["modelled_in_prior"] = [i for i in always.ids if i.startswith("planck_")]
     if len(peak_shifts):  # likewise
         config["peak_shifts_nm"] = [float(d) for d in peak_shifts]
-    if modelled_per_class:  # the default's config is as before: no such keys
+    if (
+        modelled_per_class
+    ):  # the default adds no key, so its config (and cache key) is unchanged
         config["modelled_per_class"] = int(modelled_per_class)
         config["modelled_lamps"] = {
             "n_per_class": int(modelled_per_class),

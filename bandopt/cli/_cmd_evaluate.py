@@ -175,7 +175,7 @@ def register(subparsers):
         "that metric's error (LER is best with bands weighted nearly "
         "uniformly, G and CCT nearly by relative error); one scoring per "
         "distinct model, so 2-3x the time. joint: one sigma_rel (floor 0.001) "
-        "for all three, as before. Lamp types and the unexplained flag use the "
+        "for all three. Lamp types and the unexplained flag use the "
         "joint choice either way (results/estimate_mix)",
     )
     p.add_argument(
@@ -199,7 +199,7 @@ def register(subparsers):
         "half-width plus an offset, per metric the one of 0-10 x the metric's "
         "spread over the library lamps whose calibrated intervals are narrowest "
         "on the held-out lamps (same coverage there); half-width: the "
-        "posterior's half-width alone, as before (a broad posterior gets a very "
+        "posterior's half-width alone (a broad posterior gets a very "
         "wide interval). Same estimates either way (results/estimate_intervals)",
     )
     p.add_argument(

@@ -132,7 +132,7 @@ def fit_inversion(
     `"error"` choice); `diagnostics` holds every criterion per candidate
     and `diagnostics["metric_sigma"]` each metric's `σ_rel`.
 
-    `floor_grid` (default: `SIGMA_FLOOR` alone, as before): band-error floor
+    `floor_grid` (default: `SIGMA_FLOOR` alone): band-error floor
     candidates, chosen with `σ_rel` (every pair of the two grids; the inner
     scoring grows with their product) by the same rule; `sigma_floor` and
     `diagnostics["sigma_floor"]` / `["metric_floor"]` say which. With more
@@ -163,7 +163,7 @@ def fit_inversion(
     `diagnostics["cross_mixtures"]` says how many.
 
     `interval_offsets` (default `(0.0,)`: the interval's unit is the
-    posterior's half-width, as before; `INTERVAL_OFFSET_GRID` to choose):
+    posterior's half-width; `INTERVAL_OFFSET_GRID` to choose):
     candidate offsets, as fractions of each metric's spread over
     `train_lamps`, added to the half-width before conformal scaling; each
     metric takes the candidate whose calibrated intervals are narrowest on

@@ -59,7 +59,7 @@ def leave_one_class_out(
     `modelled_per_class` > 0: modelled lamps in every prior, calibrated on that
     fit's training lamps only (`fit_inversion`), so the held-out class never
     gets any (its lamps are not training lamps); the records then say
-    `modelled_per_class` and the classes that got them. Default 0: as before.
+    `modelled_per_class` and the classes that got them. Default 0: none.
 
     `moon_known`: the inversion is told each row's Moon brightness
     (`context_moon`) instead of fitting it (`MOON_ESTIMATOR`). `calibration`:

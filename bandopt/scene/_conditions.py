@@ -150,13 +150,11 @@ transmittance only for lamp light)."""
 
 DEFAULT_NEIGHBOURHOOD = "lit_street_dark_district"
 """Neighbourhood of `build_scenarios` by default: a lit street at the ~10 m
-GSD this project recommends, in a dark district (k = 0.1). The
-total-transmittance model of the thesis and of earlier versions (``"uniform"``)
-is right for coarse pixels (VIIRS, 750 m) over a uniformly lit city; at 10-100
-m GSD it over-states lamp radiance by 9-91 % (6S total/direct, issue 11 defect
-3), so it is no longer the default: ask for it with
-``neighbourhood="uniform"``. Results made before this change used
-``"uniform"``; `results/README.md` gives the numbers before and after."""
+GSD this project recommends, in a dark district (k = 0.1). The thesis's
+total-transmittance model (``neighbourhood="uniform"``) is right for coarse
+pixels (VIIRS, 750 m) over a uniformly lit city; at 10-100 m GSD it
+over-states lamp radiance by 9-91 % (6S total/direct), so it is not the
+default."""
 
 
 def resolve_neighbourhood(neighbourhood: "str | Neighbourhood") -> Neighbourhood:

@@ -2,8 +2,8 @@
 
 A filter maker needs specification intervals: how far each band's centre and
 FWHM, the out-of-band leakage and the angle of incidence (AOI) may deviate
-from the design before the estimation errors grow by more than 10 %
-(issue 13). Each deviation is scanned on a fixed grid (`CENTRE_SHIFTS_NM`,
+from the design before the estimation errors grow by more than 10 %.
+Each deviation is scanned on a fixed grid (`CENTRE_SHIFTS_NM`,
 `FWHM_FACTORS` one band at a time; `LEAKAGES`, `AOI_DEG` all bands at once)
 and scored on the outer test lamps of every resample, in two ways:
 

@@ -1,4 +1,4 @@
-"""Lamp-type identification where two lamp types share pixels (issue 8).
+"""Lamp-type identification where two lamp types share pixels.
 
 At a given GSD each lamp type's band-radiance image is resampled separately
 (the sensor is linear, so they add up to the scene), the total gets photon
