@@ -10,7 +10,7 @@ SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: run test test-slow lint bench atmospheres surfaces library lamp-models ler \
         g cct sweep compare classify classify-partitions radiometry spatial \
-        noise-aware estimate study estimate-moon estimate-library estimate-bands external-tm30 unseen-ceiling robustness \
+        noise-aware estimate study estimate-moon estimate-library external-tm30 unseen-ceiling robustness \
         before-after report check-report docs tutorial clean help
 
 help:  ## list the targets and what they do
@@ -83,9 +83,6 @@ estimate-moon: $(STAMP)  ## the estimate's scenes split by Moon state: where the
 
 estimate-library: $(STAMP)  ## what a lamp the library lacks costs: bandopt evaluate's estimator on held-out lamps and on lamps its prior holds, the same lamps paired, our bands and the two best reference sensors; surface knowledge; library size; 4 lamp partitions (resumable: ARGS=--resume)
 	$(BIN)/python -m experiments.estimate_library $(ARGS)
-
-estimate-bands: $(STAMP)  ## how many bands the goal needs: bandopt evaluate's estimator with our pan + 5 bands and with 13, 26 and 52 contiguous bands over 380-900 nm, 4 lamp partitions, paired (resumable: ARGS=--resume)
-	$(BIN)/python -m experiments.estimate_bands $(ARGS)
 
 external-tm30: $(STAMP)  ## external check: bandopt evaluate, as a user runs it, on the 210 measured IES TM-30-15 lamps the library has never seen, our bands and the two best reference sensors; and told the surface, the inversion against --estimator direct with 26 contiguous bands (about 3 min)
 	$(BIN)/python -m experiments.external_tm30 $(ARGS)

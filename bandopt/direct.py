@@ -2,7 +2,7 @@
 
 The inversion (`bandopt.inversion`) answers with lamps of its library, so a
 lamp unlike every library lamp is estimated no better than the nearest one:
-`make estimate-bands` found its error the same with 6 and with 52 bands.
+`make study NAME=estimate-bands` found its error the same with 6 and with 52 bands.
 With enough contiguous bands the spectrum itself can be read instead. A
 pixel's band radiance is modelled as in the inversion,
 

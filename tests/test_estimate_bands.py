@@ -1,4 +1,4 @@
-"""`experiments/estimate_bands.py`: evaluate's estimator with pan + 5 bands
+"""`bandopt/studies/ablations/bands.py`: evaluate's estimator with pan + 5 bands
 and with contiguous band sets. The study's configuration, the band sets it
 names, the per-class table, the decision rule fixed before the run and the
 README text built from per-lamp records (the run itself is `make
@@ -12,8 +12,8 @@ import pytest
 
 from bandopt import inversion as inv_mod
 from bandopt.studies import band_set, manifest_config
+from bandopt.studies.ablations import bands as eb
 from bandopt.studies.ablations.defaults import DEFAULT
-from experiments import estimate_bands as eb
 
 
 def test_study_scores_evaluates_estimator_on_each_band_set_paired_with_ours():

@@ -56,13 +56,13 @@ from ._units import (
     log as log,
     partition_args as partition_args,
 )
-from .ablations import defaults, intervals, mix, noise, planck, shift, tm30
+from .ablations import bands, defaults, intervals, mix, noise, planck, shift, tm30
 
 
 STUDIES: CanonicalMapping[Study] = CanonicalMapping(
     {
         m.STUDY.name: m.STUDY
-        for m in (mix, noise, intervals, shift, planck, defaults, tm30)
+        for m in (mix, noise, intervals, shift, planck, defaults, tm30, bands)
     },
     what="study",
 )

@@ -8,4 +8,6 @@ per question about the estimator, run by `make study NAME=...`.
 - `shift`: wavelength-shifted direct-emission LEDs in the prior;
 - `planck`: modelled incandescent (Planck) spectra in the prior;
 - `defaults`: `bandopt evaluate`'s estimator as a whole;
-- `tm30`: the IES TM-30-15 lamps in the prior."""
+- `tm30`: the IES TM-30-15 lamps in the prior;
+- `bands`: how many bands the goal needs (contiguous band sets, and the
+  library-free direct estimate)."""

@@ -19,8 +19,7 @@ estimate from the contiguous bands (`bandopt.direct`: the band values read
 as a spectrum once the Moon, surface and atmosphere are divided out; no
 lamp trains it) with the surface unknown, known, or measured by Sentinel-2.
 
-    python -m experiments.estimate_bands [--partitions 4] [--out DIR]
-        [--resume] [--only-partitions P ...]
+    make study NAME=estimate-bands [ARGS="--resume ..."]
 
 Writes `records.jsonl`, `summary.json`, `errors.png`, `manifest.json` and
 the `estimate-bands` section of `results/README.md` (default output only),
@@ -30,16 +29,16 @@ the priors hold the library's modelled Planck spectra (as evaluate's).
 
 import numpy as np
 
-from bandopt.studies import (
-    Study,
-    band_set,
-    class_means,
-    diff_cells,
-    fmt_cell,
-    row_line,
-    run,
-)
-from bandopt.studies.ablations.defaults import DEFAULT
+from ... import inversion as inv_mod
+from ...direct import context_reflectance, direct_metrics, direct_spectra
+from ...estimate import CCT_RANGE_K, lamp_truth
+from ...folds import class_balanced_weights
+from ...inversion import library_lamps
+from ...search import get_context
+from .._study import Study
+from .._text import class_means, diff_cells, fmt_cell, row_line
+from .._units import band_set
+from .defaults import DEFAULT
 
 
 COUNTS = (13, 26, 52)
@@ -79,8 +78,6 @@ def nearest_lamp_gap(spectra, wavelength_nm, level2) -> dict:
     lamps, blends of them, is near this even when it sees the whole
     spectrum without noise."""
     # lazy: JAX is configured by the study's main before photometry runs
-    from bandopt.estimate import CCT_RANGE_K, lamp_truth
-    from bandopt.folds import class_balanced_weights
 
     w = np.asarray(wavelength_nm, float)
     truth, valid = lamp_truth(spectra, w)
@@ -113,7 +110,6 @@ def library_gap() -> dict:
     """`nearest_lamp_gap` of the library's scored measured lamps (each lamp
     against all the others)."""
     # lazy: JAX is configured by the study's main before the library is built
-    from bandopt.inversion import library_lamps
 
     grid = np.arange(380.0, 901.0)
     lamps = library_lamps(grid, scored=True)
@@ -139,8 +135,6 @@ def direct_records(ctx, bands, mode: str, partition: int) -> list[dict]:
     rows; surface `mode` of `DIRECT_SURFACES` (the Sentinel-2 draw seeded by
     `partition`, as `cross_validate` seeds it)."""
     # lazy: JAX is configured by the study's main before these are used
-    from bandopt import inversion as inv_mod
-    from bandopt.direct import context_reflectance, direct_metrics, direct_spectra
 
     lamps, _, cond, _ = inv_mod.context_setup(ctx)
     grid = ctx.wavelength_nm
@@ -174,8 +168,6 @@ def direct_summary(partitions) -> dict:
     contiguous band set and surface mode over the lamp `partitions`'
     contexts (partition numbers)."""
     # lazy: JAX is configured by the study's main before these are used
-    from bandopt import inversion as inv_mod
-    from bandopt.search import get_context
 
     records = []
     for p in partitions:
@@ -313,10 +305,10 @@ def figure(summary: dict, path) -> None:
     """Class-balanced MAE per band set (mean ± SD over partitions) with the
     goal and the nearest-library-lamp error as lines, and the library-free
     direct estimate per surface mode as markers."""
-    import matplotlib
+    import matplotlib  # plotting only: start-up time
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # after matplotlib.use("Agg")
 
     rows = [r for r in summary["rows"] if r["estimator"] == DEFAULT]
     near = ((summary.get("extra") or {}).get("nearest_lamp") or {}).get("nearest")
@@ -367,7 +359,7 @@ def readme_text(summary: dict) -> str:
 
     lines = [
         "## How many bands the goal needs (`results/estimate_bands/`, "
-        "`make estimate-bands`)",
+        "`make study NAME=estimate-bands`)",
         "",
         "`bandopt evaluate`'s estimator (`" + DEFAULT + "`: surface unknown, the "
         "Moon told) on the scenes, lamp partitions and folds of `make estimate`, "
@@ -461,12 +453,4 @@ STUDY = Study(
         "direct": direct_summary(sorted({r["partition"] for r in records})),
     },
 )
-"""The study `main` runs (`bandopt.studies.Study`)."""
-
-
-def main(argv=None) -> int:
-    return run(STUDY, argv)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+"""The study (`bandopt.studies.Study`)."""
