@@ -39,7 +39,7 @@ PLANCK = "inversion-moon-mix-metric-narrow-planck"
 def planck_match() -> dict:
     """Each measured (scored) halogen lamp against a Planck radiator at its
     own CCT, on the library grid: LER and G differences (lamp − Planck),
-    their mean |difference| and range: how well the model matches
+    their mean absolute difference and range: how well the model matches
     measurement."""
     grid = np.asarray(GRID_1NM, float)
     lib = library(wavelength_nm=grid).select(scored_only=True)
