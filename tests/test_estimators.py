@@ -166,3 +166,42 @@ def test_estimates_follow_the_truth_on_the_lamps_it_knows(name, fitted, pixels):
     assert rho > 0.7, (name, rho)
     named = [(a, b) for a, b in zip(est.level1, true_level1, strict=True) if a]
     assert np.mean([a == b for a, b in named]) > 0.6, name
+
+
+def test_each_named_variant_is_the_options_its_name_lists():
+    """`inversion.LABELLED`: every token of a variant's name sets exactly
+    its option, and no option is set without its token."""
+    for name, opts in inv_mod.LABELLED.items():
+        tokens = set(name.split("-")[1:])
+        assert opts.moon_told == ("moon" in tokens), name
+        assert (opts.mixtures == inv_mod.MIX_PAIRS) == ("mix" in tokens), name
+        assert (opts.sigma_rule == "per-metric") == ("metric" in tokens), name
+        assert (opts.sigma_rule == "evidence") == ("evidence" in tokens), name
+        grid = tuple(opts.interval_offsets) == inv_mod.INTERVAL_OFFSET_GRID
+        assert grid == ("narrow" in tokens), name
+        assert bool(opts.peak_shifts_nm) == ("shift" in tokens), name
+        assert opts.planck == ("planck" in tokens), name
+        assert opts.tm30 == ("tm30" in tokens), name
+        assert (opts.calibration == "classes") == ("loco" in tokens), name
+        assert opts.cross_mixtures == 0 and not opts.nir_error, name
+
+
+def test_the_studies_default_variant_differs_from_evaluates_only_where_said():
+    """The studies' `DEFAULT_ESTIMATOR` and the shipped estimator
+    (`InversionConfig()`) differ in the options added after those studies
+    ran, and in nothing else."""
+    from bandopt.estimators import InversionConfig
+
+    study = inv_mod.LABELLED[inv_mod.DEFAULT_ESTIMATOR]
+    shipped = InversionConfig()
+    differ = {
+        f.name
+        for f in dataclasses.fields(shipped)
+        if getattr(shipped, f.name) != getattr(study, f.name)
+    }
+    assert differ == {
+        "cross_mixtures",
+        "calibration",
+        "nir_error",
+        "calibrate_probabilities",
+    }

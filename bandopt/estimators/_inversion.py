@@ -23,42 +23,10 @@ from ._contract import Estimates, Surface
 
 
 @dataclasses.dataclass(frozen=True)
-class InversionConfig:
-    """Options of the shipped inversion (see `inversion.fit_inversion`).
-
-    - `mixtures`: pairwise same-class blends per class in the prior.
-    - `cross_mixtures`: lamp pairs per ordered class pair whose blends of
-      two types join the prior, named by the majority lamp
-      (`inversion.cross_mixture_lamps`, `inversion.CROSS_MIX_PAIRS`).
-    - `peak_shifts_nm`: wavelength-shifted copies of direct-emission LEDs.
-    - `planck`: modelled incandescent spectra (Planck's law) in the prior.
-    - `tm30`: the IES TM-30-15 lamps in the prior (train, never score).
-    - `sigma_rule`, `floor_grid`: how the band-error model is chosen.
-    - `calibration`: interval calibration on held-out lamps ("lamps") or on
-      each training class held out in turn ("classes": new types too).
-    - `interval_offsets`: candidate interval offsets (the narrowest wins).
-    - `moon_told`: the Moon's brightness of every scene is known (from the
-      acquisition's time and place), so it is not fitted.
-    - `modelled_per_class`: modelled lamps of rare classes in the prior.
-    - `nir_error`: the modelled NIR of extended lamps carries its measured
-      error (`inversion.nir_variants`), so no type rests on it alone.
-    - `calibrate_probabilities`: type probabilities temperature-scaled on
-      held-out lamps of known types (`bandopt.calibration`); held-out types
-      are reported beside them and left to the `unexplained` flag."""
-
-    mixtures: int = inv_mod.MIX_PAIRS
-    cross_mixtures: int = inv_mod.CROSS_MIX_PAIRS
-    peak_shifts_nm: tuple[float, ...] = inv_mod.PEAK_SHIFTS_NM
-    planck: bool = True
-    tm30: bool = False
-    sigma_rule: str = "per-metric"
-    floor_grid: tuple[float, ...] = inv_mod.FLOOR_GRID
-    calibration: str = "classes"
-    interval_offsets: tuple[float, ...] = inv_mod.INTERVAL_OFFSET_GRID
-    moon_told: bool = True
-    modelled_per_class: int = 0
-    nir_error: bool = True
-    calibrate_probabilities: bool = True
+class InversionConfig(inv_mod.InversionOptions):
+    """The shipped inversion under the estimator contract: its options
+    (`inversion.InversionOptions`, with `bandopt evaluate`'s defaults), how
+    it is fitted on a context and what it predicts."""
 
     name: ClassVar[str] = "inversion"
     own_lamps: ClassVar[bool] = True
@@ -82,22 +50,6 @@ class InversionConfig:
         return FittedInversion(
             inv, self, inv_mod.surface_basis(grid), describe(inv, self, surface_mode)
         )
-
-    def fit_kwargs(self) -> dict:
-        """The keyword arguments of `inversion.fit_inversion` this config sets
-        (all but the data and the prior's always-present lamps)."""
-        return {
-            "mixtures": self.mixtures,
-            "cross_mixtures": self.cross_mixtures,
-            "peak_shifts": tuple(self.peak_shifts_nm),
-            "sigma_rule": self.sigma_rule,
-            "floor_grid": tuple(self.floor_grid),
-            "calibration": self.calibration,
-            "interval_offsets": tuple(self.interval_offsets),
-            "modelled_per_class": self.modelled_per_class,
-            "nir_error": self.nir_error,
-            "calibrate_probabilities": self.calibrate_probabilities,
-        }
 
 
 def fit_on_context(

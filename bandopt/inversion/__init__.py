@@ -94,7 +94,7 @@ prior mass. `bandopt.estimators.InversionConfig` turns both on.
 - `_model`: `Inversion`, `build_inversion`, `InversionResult`, `top_two`;
 - `_calibrate`: conformal factors, interval units, probability temperatures;
 - `_fit`: `fit_inversion`;
-- `_estimators`: the estimator names of `cross_validate`;
+- `_estimators`: `InversionOptions` and the named variants of `cross_validate`;
 - `_context`: the inversion on a `search.Context` (`context_setup`,
   `context_moon`, `fit_for_context`, `augment_with_modelled`);
 - `_crossval`: `cross_validate` and its records;
@@ -141,15 +141,18 @@ from ._estimators import (
     DEFAULT_ESTIMATOR as DEFAULT_ESTIMATOR,
     ESTIMATORS as ESTIMATORS,
     EVIDENCE_ESTIMATOR as EVIDENCE_ESTIMATOR,
+    LABELLED as LABELLED,
     MIX_ESTIMATOR as MIX_ESTIMATOR,
     MIX_METRIC_ESTIMATOR as MIX_METRIC_ESTIMATOR,
     MODELLED_ESTIMATORS as MODELLED_ESTIMATORS,
     MOON_ESTIMATOR as MOON_ESTIMATOR,
     MOON_UNSEEN_ESTIMATOR as MOON_UNSEEN_ESTIMATOR,
     NARROW_ESTIMATOR as NARROW_ESTIMATOR,
+    PLAIN as PLAIN,
     PLANCK_ESTIMATOR as PLANCK_ESTIMATOR,
     SHIFT_ESTIMATOR as SHIFT_ESTIMATOR,
     TM30_ESTIMATOR as TM30_ESTIMATOR,
+    InversionOptions as InversionOptions,
 )
 from ._fit import (
     CALIBRATIONS as CALIBRATIONS,

@@ -8,7 +8,6 @@ import numpy as np
 
 from ..estimate import CCT_RANGE_K, METRICS, MIRED, fit_estimator, fit_kernel_estimator
 from ..names import validate_method
-from ._calibrate import INTERVAL_OFFSET_GRID
 from ._context import (
     _basis,
     augment_with_modelled,
@@ -20,6 +19,7 @@ from ._estimators import (
     DEFAULT_ESTIMATOR,
     ESTIMATORS,
     EVIDENCE_ESTIMATOR,
+    LABELLED,
     MIX_ESTIMATOR,
     MIX_METRIC_ESTIMATOR,
     MODELLED_ESTIMATORS,
@@ -28,7 +28,6 @@ from ._estimators import (
     NARROW_ESTIMATOR,
     PLANCK_ESTIMATOR,
     SHIFT_ESTIMATOR,
-    TM30_ESTIMATOR,
 )
 from ._fit import fit_inversion
 from ._lamps import (
@@ -40,9 +39,7 @@ from ._lamps import (
 )
 from ._metrics import PHYSICAL_RANGE
 from ._model import InversionResult
-from ._scoring import FLOOR_GRID, SIGMA_FLOOR
 from ._surfaces import _surface_knowledge
-from ._variants import MIX_PAIRS, PEAK_SHIFTS_NM
 
 
 def _smaller_library(split, level2, fraction: float, seed: int, fold: int):
@@ -139,7 +136,8 @@ def cross_validate(
     augmented: dict = {}  # per outer fold, shared by ridge+models and kernel+models
     # what records list of their priors: once, not per record
     planck_ids = planck_lamps(grid).ids
-    n_tm30 = len(tm30_lamps(grid).ids) if TM30_ESTIMATOR in estimators else 0
+    tm30 = any(LABELLED[e].tm30 for e in estimators if e in LABELLED)
+    n_tm30 = len(tm30_lamps(grid).ids) if tm30 else 0
     for k in folds:
         s = ctx.splits[k]
         if train_fraction < 1.0:
@@ -149,37 +147,20 @@ def cross_validate(
         rows = np.flatnonzero(np.isin(row_lamp, score_ids))
         preds, model_info = {}, {}
         for name in estimators:
-            if name in (
-                "inversion",
-                "inversion+models",
-                EVIDENCE_ESTIMATOR,
-                MOON_ESTIMATOR,
-                MOON_UNSEEN_ESTIMATOR,
-                MIX_ESTIMATOR,
-                MIX_METRIC_ESTIMATOR,
-                NARROW_ESTIMATOR,
-                SHIFT_ESTIMATOR,
-                PLANCK_ESTIMATOR,
-                DEFAULT_ESTIMATOR,
-                TM30_ESTIMATOR,
-            ):
-                narrow = name in (
-                    NARROW_ESTIMATOR,
-                    SHIFT_ESTIMATOR,
-                    PLANCK_ESTIMATOR,
-                    DEFAULT_ESTIMATOR,
-                    TM30_ESTIMATOR,
-                )
-                planck = name in (PLANCK_ESTIMATOR, DEFAULT_ESTIMATOR, TM30_ESTIMATOR)
-                shift = name in (SHIFT_ESTIMATOR, DEFAULT_ESTIMATOR, TM30_ESTIMATOR)
+            if name in LABELLED:
+                opts = LABELLED[name]
+                if name == "inversion+models":
+                    opts = dataclasses.replace(
+                        opts, modelled_per_class=modelled_per_class
+                    )
                 if name == MIX_METRIC_ESTIMATOR and NARROW_ESTIMATOR in estimators:
                     continue  # scored from the narrow fit at offset 0
-                per = narrow or name == MIX_METRIC_ESTIMATOR
-                mix = per or name == MIX_ESTIMATOR
-                told = mix or name in (MOON_ESTIMATOR, MOON_UNSEEN_ESTIMATOR)
-                moon_rows = context_moon(ctx) if told else None
-                n_model = modelled_per_class if name == "inversion+models" else 0
-                prior_always = with_planck_lamps(always, grid) if planck else always
+                moon_rows = context_moon(ctx) if opts.moon_told else None
+                prior_always = always
+                if opts.planck:
+                    prior_always = with_planck_lamps(prior_always, grid)
+                if opts.tm30:
+                    prior_always = with_tm30_lamps(prior_always, grid)
                 for mode in surface_modes:
                     si = surf_in[mode]
                     inv = fit_inversion(
@@ -193,29 +174,11 @@ def cross_validate(
                         basis=basis,
                         surface_mode=mode,
                         row_surface=si,
-                        always=(
-                            with_tm30_lamps(prior_always, grid)
-                            if name == TM30_ESTIMATOR
-                            else prior_always
-                        ),
-                        modelled_per_class=n_model,
+                        always=prior_always,
                         modelled_classes=modelled_classes,
                         modelled_seed=seed,
-                        sigma_rule=(
-                            "per-metric"
-                            if per
-                            else "evidence"
-                            if name == EVIDENCE_ESTIMATOR
-                            else "error"
-                        ),
                         row_moon=moon_rows,
-                        calibration=(
-                            "classes" if name == MOON_UNSEEN_ESTIMATOR else "lamps"
-                        ),
-                        mixtures=MIX_PAIRS if mix else 0,
-                        floor_grid=FLOOR_GRID if per else (SIGMA_FLOOR,),
-                        interval_offsets=INTERVAL_OFFSET_GRID if narrow else (0.0,),
-                        peak_shifts=PEAK_SHIFTS_NM if shift else (),
+                        **opts.fit_kwargs(),
                     )
                     sub = (
                         None
@@ -312,9 +275,9 @@ def cross_validate(
                     rec["sigma_rel"] = inv.sigma_rel
                     if inv.metric_sigma:
                         rec["metric_noise"] = [list(x) for x in inv.metric_noise]
-                    if name in (PLANCK_ESTIMATOR, DEFAULT_ESTIMATOR, TM30_ESTIMATOR):
+                    if name in LABELLED and LABELLED[name].planck:
                         rec["modelled_in_prior"] = list(planck_ids)
-                    if name == TM30_ESTIMATOR:
+                    if name in LABELLED and LABELLED[name].tm30:
                         rec["tm30_in_prior"] = n_tm30
                 if modelled_per_class > 0:
                     rec.update(model_info.get(name) or _modelled_fields(inv))
