@@ -317,7 +317,7 @@ def _radiometry_limits(f: Files) -> list[Headline]:
 
 
 def _spatial_summary(f: Files) -> list[Headline]:
-    from bandopt.report._checks import spatial_median
+    from bandopt.report import spatial_median
 
     n = "summary.json"
     per = f.get(n, "gsd_needed_m")

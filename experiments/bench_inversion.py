@@ -57,7 +57,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="results/bench")
     args = ap.parse_args(argv)
 
-    from bandopt._config import configure
+    from bandopt import configure
 
     configure()
     import jax.numpy as jnp

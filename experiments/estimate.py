@@ -119,7 +119,7 @@ def main(argv=None) -> int:
     if args.modelled_per_class < 0:
         ap.error("--modelled-per-class must be >= 0.")
 
-    from bandopt._config import configure
+    from bandopt import configure
 
     configure()
     from bandopt import inversion as inv_mod

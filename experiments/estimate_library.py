@@ -463,7 +463,7 @@ def size_figure(summary: dict, path: Path) -> None:
 def main(argv=None) -> int:
     args, only = partition_args(argv, __doc__.splitlines()[0], OUT, unseen=False)
 
-    from bandopt._config import configure
+    from bandopt import configure
 
     configure()
     from bandopt.provenance import write_manifest

@@ -74,12 +74,12 @@ def log(msg: str) -> None:
 
 def preset_name(moons) -> str:
     """The scenario preset of a Moon state set (registered on first use)."""
-    from bandopt.search import _task
+    from bandopt.search import PRESETS
 
     if moons is None:
         return "search"
     name = "search_moon_" + "_".join("none" if m is None else m for m in moons)
-    _task.PRESETS.setdefault(name, dict(_task.PRESETS["search"], moons=tuple(moons)))
+    PRESETS.setdefault(name, dict(PRESETS["search"], moons=tuple(moons)))
     return name
 
 
@@ -176,7 +176,7 @@ def main(argv=None) -> int:
     if args.partitions < 1:
         ap.error("--partitions must be >= 1.")
 
-    from bandopt._config import configure
+    from bandopt import configure
 
     configure()
     from bandopt import inversion as inv_mod

@@ -179,9 +179,9 @@ def nir_summary(lib, rows, measured) -> dict:
 
 
 def line_checks() -> dict:
-    from bandopt.datasets import _lamp_sources
+    from bandopt.datasets.lamps import color_pollution_measured
 
-    spectra = _lamp_sources._long_csv(_lamp_sources._COLOR_POLLUTION / "spectra.csv")
+    spectra = color_pollution_measured()
     nist = {
         "Hg I 404.66": 404.66,
         "Hg I 435.83": 435.83,

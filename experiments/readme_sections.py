@@ -18,7 +18,7 @@ import math
 import sys
 from pathlib import Path
 
-from bandopt.report._checks import spatial_median
+from bandopt.report import spatial_median
 from bandopt.results import update_readme_section
 from bandopt.scene import LIGHTING_CLASSES, class_illuminance_lx
 

@@ -217,7 +217,7 @@ def main(argv=None) -> int:
     )  # fmt: skip
     args = ap.parse_args(argv)
 
-    from bandopt._config import configure
+    from bandopt import configure
 
     configure()
     from bandopt import robustness as rb

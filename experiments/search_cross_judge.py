@@ -16,8 +16,13 @@ import sys
 import time
 
 from bandopt import configure
-from bandopt.search import partition_summary, truth_sd
-from bandopt.search._study import make_study_task, score_design, study_resamples
+from bandopt.search import (
+    make_study_task,
+    partition_summary,
+    score_design,
+    study_resamples,
+    truth_sd,
+)
 from bandopt.sensor.reference import resolve_band_set
 
 

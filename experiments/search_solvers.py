@@ -39,7 +39,7 @@ def _adam_search(space, alpha, steps: int, lr: float):
     import jax
     import jax.numpy as jnp
 
-    from bandopt.search._stability import design_loss
+    from bandopt.search import design_loss
 
     def per(data, u, r):
         return design_loss(data, space, alpha, u, r)
@@ -119,7 +119,7 @@ def _precompile(data, space, alpha, task) -> dict:
     searches, not the compilers. Returns the compile times [s]."""
     import jax.numpy as jnp
 
-    from bandopt.search._stability import _local_fits, _single_loss
+    from bandopt.search import local_fits, single_loss
 
     n_r = data.train_w.shape[0]
     z = jnp.zeros((n_r, ADAM["restarts"], space.dim), data.toa.dtype)
@@ -130,10 +130,10 @@ def _precompile(data, space, alpha, task) -> dict:
     t1 = time.perf_counter()
     z = jnp.zeros((n_r, task["restarts"], space.dim), data.toa.dtype)
     a = jnp.asarray(alpha, data.toa.dtype)
-    _local_fits(space, task["max_steps"], task["rtol"], task["atol"]).lower(
+    local_fits(space, task["max_steps"], task["rtol"], task["atol"]).lower(
         z, data, a
     ).compile()
-    _single_loss(space)(data, jnp.full(space.dim, 0.5), 0, a)
+    single_loss(space)(data, jnp.full(space.dim, 0.5), 0, a)
     t2 = time.perf_counter()
     return {"adam": t1 - t0, "nlopt+bfgs": t2 - t1}
 
@@ -150,9 +150,9 @@ def compare_band_count(ctx, res, task, alpha: float) -> dict:
         batched_search,
         design_intervals,
         make_batch_data,
+        sorted_design,
         study_space,
     )
-    from bandopt.search._stability import sorted_design
 
     space = study_space(task, ctx)
     data = make_batch_data(

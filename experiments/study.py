@@ -10,7 +10,7 @@ import sys
 
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    from bandopt._config import configure
+    from bandopt import configure
 
     configure()  # XLA threads and the compilation cache, before JAX loads
     from bandopt.studies import STUDIES, run
@@ -18,7 +18,7 @@ def main(argv=None) -> int:
     if not argv or argv[0].startswith("-"):
         for name, study in STUDIES.items():
             print(f"{name:22s} {study.description or study.title}")
-        print("\nrun one: make study NAME=<name> [ARGS=\"--resume\"]")
+        print('\nrun one: make study NAME=<name> [ARGS="--resume"]')
         return 0
     try:
         study = STUDIES[STUDIES.resolve(argv[0])]

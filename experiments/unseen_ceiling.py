@@ -645,7 +645,7 @@ def main(argv=None) -> int:
     )
     args = ap.parse_args(argv)
 
-    from bandopt._config import configure
+    from bandopt import configure
 
     configure()
     from bandopt import inversion as inv_mod

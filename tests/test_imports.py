@@ -347,3 +347,24 @@ def test_inversion_modules_import_only_lower_floors():
         found = upward_imports(path.read_text(), _module_name(path), INVERSION_FLOORS)
         bad += [f"{path.relative_to(PACKAGE.parent)}:{n} imports {s}" for n, s in found]
     assert not bad, "an inversion module imports one above it: " + ", ".join(bad)
+
+
+EXPERIMENTS = sorted((PACKAGE.parent / "experiments").glob("*.py"))
+
+
+def test_experiments_use_only_public_names():
+    """`experiments/` holds scripts on the library's public face: no private
+    module or name of bandopt (`bandopt._config`, `bandopt.search._task`,
+    `from bandopt.x import _y`), none of another experiment's private names."""
+    bad = []
+    for path in EXPERIMENTS:
+        module = ("experiments", path.stem)
+        for line, target, names in imports(path.read_text(), module, False):
+            if target[0] not in ("bandopt", "experiments"):
+                continue
+            private = [p for p in target[1:] if p.startswith("_")] + [
+                n for n in names if n.startswith("_") and not n.startswith("__")
+            ]
+            if private:
+                bad.append(f"{path.name}:{line} {'.'.join(target)} {private}")
+    assert not bad, "private imports in experiments/: " + "; ".join(bad)

@@ -270,6 +270,13 @@ def _lspdd_sources() -> list[_Raw]:
     return raws
 
 
+def color_pollution_measured() -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """The colour-pollution set's spectra as measured, on their own grid:
+    {name: (wavelength [nm], relative value)} (`Robinson2016`); for checks
+    of line positions, before any resampling."""
+    return _long_csv(_COLOR_POLLUTION / "spectra.csv")
+
+
 def _long_csv(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """`name,wavelength_nm,value` rows -> {name: (wavelength, value)}."""
     names = np.loadtxt(path, delimiter=",", skiprows=1, usecols=0, dtype=str)

@@ -36,6 +36,7 @@ from ._lamp_readers import (
     _raw_sources,
     _tm30_level2 as _tm30_level2,
     _tm30_sources as _tm30_sources,
+    color_pollution_measured as color_pollution_measured,
     parse_lspdd_spectrum as parse_lspdd_spectrum,
 )
 from ._lamp_screens import (

@@ -120,6 +120,7 @@ from ._lamp_sources import (
     UsableRange as UsableRange,
     _classified,
     classes_with_measured_nir,
+    color_pollution_measured as color_pollution_measured,
     contamination_start as contamination_start,
     lspdd_enabled,
     measured_end as measured_end,

@@ -15,7 +15,7 @@ import html
 from pathlib import Path
 
 from . import _sections
-from ._checks import CHECKS, ReportDriftError, check_consistency
+from ._checks import CHECKS, ReportDriftError, check_consistency, spatial_median
 from ._html import page
 from ._sections import EXPERIMENTS, Ctx
 from ._source import ReportInputError, Sources, resolve_pointer
@@ -32,6 +32,7 @@ __all__ = [
     "check_consistency",
     "consistency_messages",
     "resolve_pointer",
+    "spatial_median",
 ]
 
 MAX_BYTES = 5_000_000
@@ -43,8 +44,11 @@ SECTIONS = (
     ("comparison", "Comparison with reference sensors", "comparison"),
     ("band-count", "Error vs band count", "band_count"),
     ("search", "Stability and Pareto front of the band search", "search_figures"),
-    ("classification", "Lamp-type classification: confusion matrices",
-     "classification"),
+    (
+        "classification",
+        "Lamp-type classification: confusion matrices",
+        "classification",
+    ),
     ("radiometry", "Radiometry: radiance histograms, limits, bit depth", "radiometry"),
     ("spatial", "Spatial sampling: rendered scenes and detection vs GSD", "spatial"),
     ("overlap", "Overlapping lamp types", "overlap"),
@@ -70,8 +74,9 @@ def consistency_messages(results_dir="results") -> list[str]:
     return check_consistency(Sources(results_dir, results_dir))
 
 
-def build_report(results_dir="results", out_dir=None, *, strict: bool = True
-                 ) -> ReportResult:
+def build_report(
+    results_dir="results", out_dir=None, *, strict: bool = True
+) -> ReportResult:
     """Write `out_dir/index.html` (default `results_dir/report`) from the files
     of `results_dir`. With `strict=False` (tests of the page structure only) a
     disagreement is listed in the consistency section instead of raising; the
@@ -105,8 +110,7 @@ def build_report(results_dir="results", out_dir=None, *, strict: bool = True
         "links to the results file it was read from (hover for the field).</p>"
         + _sections.missing_summary(ctx)
     )
-    text = page("bandopt: night-time multispectral sensor report", built,
-                header=header)
+    text = page("bandopt: night-time multispectral sensor report", built, header=header)
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "index.html"
     data = text.encode("utf-8")

@@ -74,8 +74,12 @@ from ._report import (
 from ._stability import (
     batched_loss as batched_loss,
     batched_search as batched_search,
+    design_loss as design_loss,
     lamp_resamples as lamp_resamples,
+    local_fits as local_fits,
     make_batch_data as make_batch_data,
+    single_loss as single_loss,
+    sorted_design as sorted_design,
 )
 from ._study import (
     DEFAULT_SCORER as DEFAULT_SCORER,
@@ -86,6 +90,7 @@ from ._study import (
     get_scorer as get_scorer,
     make_study_task as make_study_task,
     run_study_task as run_study_task,
+    score_design as score_design,
     study_resamples as study_resamples,
     study_space as study_space,
 )

@@ -141,7 +141,7 @@ def distinct_starts(points, k: int, space, *, min_distance: float = 0.1):
 
 
 @functools.lru_cache(maxsize=32)
-def _single_loss(space):
+def single_loss(space):
     """Jitted `f(data, u, r, alpha)`; `alpha` traced: one compilation serves
     every objective weight."""
     return jax.jit(lambda data, u, r, a: design_loss(data, space, a, u, r))
@@ -160,7 +160,7 @@ def explore(
     seeded `seed + r` for resample `r` and budgeted at `evals_per_dim · d`
     loss values; returns the `restarts` best distinct points of each run
     (`distinct_starts`): `(U (R, K, d), f (R, K), evaluations (R,))`."""
-    value = _single_loss(space)
+    value = single_loss(space)
     a = jnp.asarray(alpha, data.toa.dtype)
     n_r, dim = data.train_w.shape[0], space.dim
     budget = int(evals_per_dim) * dim
@@ -198,7 +198,7 @@ def explore(
 
 
 @functools.lru_cache(maxsize=32)
-def _local_fits(space, max_steps: int, rtol: float, atol: float):
+def local_fits(space, max_steps: int, rtol: float, atol: float):
     """Jitted `f(z0 (R, K, d), data, alpha) -> (z, loss, result, steps)`: one
     optimistix BFGS fit per resample and start, vmapped over both (`alpha`
     traced: one compilation serves every objective weight)."""
@@ -270,7 +270,7 @@ def batched_search(
         seed=seed,
     )
     z0 = jnp.asarray(angle_from_unit(U0), data.toa.dtype)
-    run = _local_fits(space, int(max_steps), float(rtol), float(atol))
+    run = local_fits(space, int(max_steps), float(rtol), float(atol))
     z, f, code, steps = run(z0, data, jnp.asarray(alpha, data.toa.dtype))
     U = np.asarray(unit_from_angle(z), float)
     f = np.asarray(f, float)
