@@ -190,7 +190,7 @@ def test_study_options_are_checked():
 
 
 def test_experiment_writes_its_outputs(run, tmp_path):
-    from experiments.robustness import write_outputs
+    from bandopt.robustness import write_outputs
 
     _, _, summary = run
     write_outputs(summary, STUDY, tmp_path)

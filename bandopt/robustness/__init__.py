@@ -34,6 +34,7 @@ one (partition, band set) unit, the resumable `run_study`) and `_summary`
 against clean).
 """
 
+from ._outputs import readme_text as readme_text, write_outputs as write_outputs
 from ._study import (
     BAND_SETS as BAND_SETS,
     CONFIDENCE_DECIMALS as CONFIDENCE_DECIMALS,
