@@ -109,7 +109,8 @@ def figure(summary: dict, path: Path) -> None:
         axes, (("LER", "lm/W"), ("G", "1"), ("CCT", "K")), strict=True
     ):
         estimators = summary["estimators"]
-        colours = ("C8", "C9", "C2")[: len(estimators)]
+        palette = ("C8", "C9", "C2", "C0", "C1", "C3", "C4", "C5", "C6", "C7")
+        colours = [palette[j % len(palette)] for j in range(len(estimators))]
         for j, (est, colour) in enumerate(zip(estimators, colours, strict=True)):
             v = [by.get((*k, est), {}).get(m) for k in keys]
             e = [by.get((*k, est), {}).get(f"{m}_sd") or 0.0 for k in keys]
