@@ -134,6 +134,16 @@ def test_guide_own_lamp_snippet_runs(tmp_path, monkeypatch):
     exec(_guide_block("Bring your own lamp spectra"), {})
 
 
+def test_guide_estimator_snippet_runs(capsys):
+    """The guide's 'new question' code fits a registered estimator by name and
+    predicts typed estimates."""
+    ns: dict = {}
+    exec(_guide_block("Ask a new question of the estimator"), ns)
+    est = ns["est"]
+    assert len(est) == 5 and est.values.shape == (5, 3)
+    assert "ridge regression" in capsys.readouterr().out
+
+
 def test_tutorial_picks_the_estimator_from_the_help(monkeypatch):
     from experiments import tutorial
 

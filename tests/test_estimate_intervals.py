@@ -24,9 +24,10 @@ def test_study_scores_both_units_from_one_fit_for_every_band_set():
     )
     assert s.estimators == (ei.BASE, ei.NARROW) and s.pairs == ((ei.NARROW, ei.BASE),)
     assert set(s.band_sets) == {"recommended", "sdgsat-1", "nightsat"}
-    (label, _mix, calibration, rule, grid), = s.unseen  # fmt: skip
-    assert (calibration, rule, grid) == ("classes", "per-metric", ei.GRID)
-    assert label == f"{ei.NARROW}-loco"
+    (label,) = s.unseen
+    opts = inv_mod.options_of(label)
+    assert (opts.calibration, opts.sigma_rule) == ("classes", "per-metric")
+    assert opts.interval_offsets == ei.GRID and label == f"{ei.NARROW}-loco"
     assert s.figure_name == "intervals.png" and s.out == "results/estimate_intervals"
 
 
@@ -127,15 +128,14 @@ def test_unseen_records_split_by_their_intervals():
 
 
 def test_manifest_lists_every_unseen_run_with_its_offsets():
-    runs = manifest_config(ei.STUDY, 4)["unseen_types"]
-    assert runs == [
-        {"label": f"{ei.NARROW}-loco", "mixtures": None,
-         "interval_calibration": "classes", "sigma_rule": "per-metric",
-         "interval_offsets": list(ei.GRID), "options": {}}
-    ]  # fmt: skip
-    old = manifest_config(STUDIES["estimate-mix"], 4)["unseen_types"]  # four-field runs
-    assert {r["interval_offsets"] == [0.0] for r in old} == {True}
-    assert [r["options"] for r in old] == [{}] * len(old)
+    (run,) = manifest_config(ei.STUDY, 4)["unseen_types"]
+    assert run["label"] == f"{ei.NARROW}-loco"
+    assert run["interval_offsets"] == list(ei.GRID)
+    assert (run["calibration"], run["sigma_rule"]) == ("classes", "per-metric")
+    assert run["mixtures"] == inv_mod.MIX_PAIRS and run["peak_shifts_nm"] == []
+    mix = manifest_config(STUDIES["estimate-mix"], 4)["unseen_types"]
+    assert {r["interval_offsets"] == [0.0] for r in mix} == {True}
+    assert [r["mixtures"] for r in mix] == [0, inv_mod.MIX_PAIRS, inv_mod.MIX_PAIRS]
     assert manifest_config(STUDIES["estimate-mix"], 4)["modelled_lamps_used"] is False
 
 

@@ -1,6 +1,7 @@
 """`bandopt/studies/ablations/noise.py`: its study and README text on a hand-made
 summary (the runs themselves are `make study NAME=estimate-noise`)."""
 
+from bandopt import inversion as inv_mod
 from bandopt.studies import run
 from bandopt.studies.ablations import noise as en
 
@@ -19,8 +20,9 @@ def test_study_compares_one_model_with_one_per_metric_for_every_band_set():
     assert s.estimators == (en.ONE, en.PER) and s.pairs == ((en.PER, en.ONE),)
     assert set(s.band_sets) == {"recommended", "sdgsat-1", "nightsat"}
     assert all(m == ("unknown",) for m in s.band_sets.values())
-    assert [u[3] for u in s.unseen] == ["error", "per-metric"]
-    assert all(u[2] == "classes" for u in s.unseen)  # evaluate's intervals
+    opts = [inv_mod.options_of(u) for u in s.unseen]
+    assert [o.sigma_rule for o in opts] == ["error", "per-metric"]
+    assert all(o.calibration == "classes" for o in opts)  # evaluate's intervals
     assert s.readme is en.readme_text and s.out == "results/estimate_noise"
 
 

@@ -4,11 +4,13 @@ records, the manifest saying whether modelled spectra trained, and how far
 measured halogen lamps lie from a Planck radiator (the runs themselves are
 `make study NAME=estimate-shift` and `make study NAME=estimate-planck`)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from bandopt import inversion as inv_mod
-from bandopt.studies import manifest_config
+from bandopt.studies import GRID, SHIFTS, manifest_config
 from bandopt.studies.ablations import (
     defaults as ed,
     planck as ep,
@@ -18,8 +20,8 @@ from bandopt.studies.ablations import (
 
 
 def test_studies_pair_evaluates_estimator_with_one_change_each():
-    assert es.SHIFTS == inv_mod.PEAK_SHIFTS_NM
-    assert es.GRID == inv_mod.INTERVAL_OFFSET_GRID
+    assert SHIFTS == inv_mod.PEAK_SHIFTS_NM
+    assert GRID == inv_mod.INTERVAL_OFFSET_GRID
     assert (es.BASE, es.SHIFT, ep.PLANCK, ed.DEFAULT) == (
         inv_mod.NARROW_ESTIMATOR,
         inv_mod.SHIFT_ESTIMATOR,
@@ -28,19 +30,21 @@ def test_studies_pair_evaluates_estimator_with_one_change_each():
     )
     assert ed.STUDY.estimators == (es.BASE, ed.DEFAULT)
     assert ed.STUDY.pairs == ((ed.DEFAULT, es.BASE),)
-    ((*_, more),) = ed.STUDY.unseen
-    assert more == {"peak_shifts": es.SHIFTS, "planck": True}
+    (label,) = ed.STUDY.unseen
+    opts = inv_mod.options_of(label)
+    assert opts.peak_shifts_nm == SHIFTS and opts.planck and not opts.tm30
     assert manifest_config(ed.STUDY, 4)["modelled_lamps_used"] is True
     for study, variant, more in (
-        (es.STUDY, es.SHIFT, {"peak_shifts": es.SHIFTS}),
+        (es.STUDY, es.SHIFT, {"peak_shifts_nm": SHIFTS}),
         (ep.STUDY, ep.PLANCK, {"planck": True}),
     ):
         assert study.estimators == (es.BASE, variant)
         assert study.pairs == ((variant, es.BASE),)
         assert set(study.band_sets) == {"recommended", "sdgsat-1", "nightsat"}
-        base, var = study.unseen
-        assert base == (f"{es.BASE}-loco", None, "classes", "per-metric", es.GRID)
-        assert var == (f"{variant}-loco", None, "classes", "per-metric", es.GRID, more)
+        assert study.unseen == (f"{es.BASE}-loco", f"{variant}-loco")
+        base, var = (inv_mod.options_of(u) for u in study.unseen)
+        assert base.calibration == "classes" and base.interval_offsets == GRID
+        assert var == dataclasses.replace(base, **more)
 
 
 def test_manifests_say_whether_modelled_spectra_trained():
@@ -51,8 +55,12 @@ def test_manifests_say_whether_modelled_spectra_trained():
     assert "Planck" in planck["training_lamps"]
     assert "Planck" not in shift["training_lamps"]
     assert "shifted" in shift["training_lamps"]
-    assert shift["unseen_types"][1]["options"] == {"peak_shifts": list(es.SHIFTS)}
-    assert planck["unseen_types"][1]["options"] == {"planck": True}
+    assert shift["unseen_types"][1]["peak_shifts_nm"] == list(SHIFTS)
+    assert not shift["unseen_types"][1]["planck"]
+    assert (
+        planck["unseen_types"][1]["planck"]
+        and not planck["unseen_types"][1]["peak_shifts_nm"]
+    )
 
 
 def _records(est, ler):
@@ -82,7 +90,7 @@ def test_per_class_table_and_readme_text():
     (p,) = [x for x in paired if x["band_set"] == "recommended"]
     assert p["LER_diff"] == pytest.approx(-5.0)  # class-balanced: (-10 + 0) / 2
     text = es.readme_text(
-        {"partitions": 2, "peak_shifts_nm": list(es.SHIFTS), "rows": rows,
+        {"partitions": 2, "peak_shifts_nm": list(SHIFTS), "rows": rows,
          "paired": paired, "unseen_types": {}, "extra": {"by_class": table}}
     )  # fmt: skip
     assert "shifted by -10, -7.5, -5, -2.5, +2.5, +5, +7.5, +10 nm" in text
@@ -133,9 +141,9 @@ def test_tm30_study_pairs_evaluates_estimator_with_and_without_them():
     assert et.TM30 == inv_mod.TM30_ESTIMATOR
     assert et.STUDY.estimators == (ed.DEFAULT, et.TM30)
     assert et.STUDY.pairs == ((et.TM30, ed.DEFAULT),)
-    base, var = et.STUDY.unseen
-    assert base[-1] == {"peak_shifts": es.SHIFTS, "planck": True}
-    assert var[-1] == {"peak_shifts": es.SHIFTS, "planck": True, "tm30": True}
+    base, var = (inv_mod.options_of(u) for u in et.STUDY.unseen)
+    assert base.peak_shifts_nm == SHIFTS and base.planck and not base.tm30
+    assert var == dataclasses.replace(base, tm30=True)
     counts = et.tm30_counts()
     assert counts["lamps"] == sum(counts["by_class"].values()) > 150
     assert counts["duplicates_removed"] > 20

@@ -153,6 +153,7 @@ from ._estimators import (
     SHIFT_ESTIMATOR as SHIFT_ESTIMATOR,
     TM30_ESTIMATOR as TM30_ESTIMATOR,
     InversionOptions as InversionOptions,
+    options_of as options_of,
 )
 from ._fit import (
     CALIBRATIONS as CALIBRATIONS,

@@ -191,3 +191,19 @@ Moon told, `-mix` blends, `-metric` a band-error model per metric,
 `-narrow` the narrowest interval unit, `-shift` shifted LEDs, `-planck`
 Planck spectra, `-tm30` the TM-30 lamps, `-loco` intervals calibrated on
 classes held out in turn, `-evidence` σ chosen by held-out evidence)."""
+
+
+def options_of(label: str) -> InversionOptions:
+    """The options of a named variant: `LABELLED[label]`, or, for a name
+    ending in `-loco` whose stem is labelled, the stem's options with the
+    intervals calibrated on classes held out in turn (`calibration=
+    "classes"`, as an unseen-types run of that variant)."""
+    if label in LABELLED:
+        return LABELLED[label]
+    stem = label.removesuffix("-loco")
+    if stem != label and stem in LABELLED:
+        return dataclasses.replace(LABELLED[stem], calibration="classes")
+    raise ValueError(
+        f"inversion variant {label!r}: expected one of {sorted(LABELLED)}, "
+        "optionally with -loco."
+    )

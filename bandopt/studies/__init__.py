@@ -24,7 +24,6 @@ from ._study import (
     manifest_config as manifest_config,
     oracle as oracle,
     run as run,
-    unseen_options as unseen_options,
 )
 from ._text import (
     BASE as BASE,

@@ -48,9 +48,10 @@ class Study:
     - `band_sets`: band set name (`band_set`) -> surface modes scored.
     - `estimators`: estimator labels of `inversion.cross_validate`;
       `pairs`: (variant, base) labels compared paired by partition.
-    - `unseen`: unseen-types runs, each (label, mixtures (None:
-      `MIX_PAIRS`), interval calibration, σ rule[, interval offsets[,
-      further `leave_one_class_out` options]]) (`unseen_options`).
+    - `unseen`: unseen-types runs (each scored class held out in turn,
+      `inversion.leave_one_class_out`), each a variant's name
+      (`inversion.options_of`: a `LABELLED` name, `-loco` for intervals
+      calibrated on classes held out in turn).
     - `title`: the figure's; `oracle`: also the error with each test lamp in
       its own prior (`oracle`); `readme(summary) -> str` the section;
       `description` the command line's; `paired_columns` the summary
@@ -76,16 +77,6 @@ class Study:
     extra: Callable[[list], dict] | None = None
     preset: str = "search"
     atmospheres: str = "auto"
-
-
-def unseen_options(run: tuple) -> tuple:
-    """An unseen-types run's (interval offsets, further keyword arguments),
-    the optional fifth and sixth fields (defaults `(0.0,)` and `{}`)."""
-    rest = run[4:]
-    return (
-        tuple(rest[0]) if rest else (0.0,),
-        dict(rest[1]) if len(rest) > 1 else {},
-    )
 
 
 def figure(summary: dict, path: Path) -> None:
@@ -168,8 +159,16 @@ def _planck_used(study: Study) -> bool:
     """Whether any estimator or unseen run of `study` has modelled
     incandescent spectra in its prior."""
     return any("planck" in e for e in study.estimators) or any(
-        unseen_options(run)[1].get("planck") for run in study.unseen
+        inv_mod.options_of(label).planck for label in study.unseen
     )
+
+
+def _options_json(opts) -> dict:
+    """A variant's options as JSON values (tuples as lists)."""
+    return {
+        k: list(v) if isinstance(v, tuple) else v
+        for k, v in dataclasses.asdict(opts).items()
+    }
 
 
 def manifest_config(study: Study, partitions: int) -> dict:
@@ -184,19 +183,8 @@ def manifest_config(study: Study, partitions: int) -> dict:
         "floor_grid": list(inv_mod.FLOOR_GRID),
         "sigma_grid": list(inv_mod.SIGMA_REL_GRID),
         "unseen_types": [
-            {
-                "label": a,
-                "mixtures": b,
-                "interval_calibration": c,
-                "sigma_rule": d,
-                "interval_offsets": list(unseen_options(run)[0]),
-                "options": {
-                    k: list(v) if isinstance(v, tuple) else v
-                    for k, v in unseen_options(run)[1].items()
-                },
-            }
-            for run in study.unseen
-            for a, b, c, d in [run[:4]]
+            {"label": label, **_options_json(inv_mod.options_of(label))}
+            for label in study.unseen
         ],
         "peak_shifts_nm": list(inv_mod.PEAK_SHIFTS_NM),
         "interval_offset_grid": list(inv_mod.INTERVAL_OFFSET_GRID),
@@ -206,7 +194,7 @@ def manifest_config(study: Study, partitions: int) -> dict:
             "; wavelength-shifted copies of direct-emission LEDs where the "
             "estimator or unseen run says -shift"
             if any("shift" in e for e in study.estimators)
-            or any("peak_shifts" in unseen_options(run)[1] for run in study.unseen)
+            or any(inv_mod.options_of(u).peak_shifts_nm for u in study.unseen)
             else ""
         )
         + (
@@ -261,23 +249,20 @@ def run(study: Study, argv=None) -> int:
     rec_bands = band_set("recommended")
     unseen = {}
     if not args.no_unseen:
-        for run in study.unseen:
-            label, mix, calibration, rule = run[:4]
-            offsets, more = unseen_options(run)
+        for label in study.unseen:
+            opts = inv_mod.options_of(label)
             recs = inv_mod.leave_one_class_out(
                 ctx0,
                 rec_bands,
-                moon_known=True,
-                mixtures=inv_mod.MIX_PAIRS if mix is None else mix,
-                calibration=calibration,
-                sigma_rule=rule,
-                floor_grid=(
-                    inv_mod.FLOOR_GRID
-                    if rule == "per-metric"
-                    else (inv_mod.SIGMA_FLOOR,)
-                ),
-                interval_offsets=offsets,
-                **more,
+                moon_known=opts.moon_told,
+                mixtures=opts.mixtures,
+                calibration=opts.calibration,
+                sigma_rule=opts.sigma_rule,
+                floor_grid=opts.floor_grid,
+                interval_offsets=opts.interval_offsets,
+                peak_shifts=opts.peak_shifts_nm,
+                planck=opts.planck,
+                tm30=opts.tm30,
             )
             for tag, rs in by_intervals(recs).items():
                 key = label if tag in (None, "narrowest") else f"{label} ({tag})"

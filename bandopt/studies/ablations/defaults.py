@@ -18,7 +18,7 @@ only), as every study does (`bandopt.studies.run`).
 """
 
 from .._study import UNKNOWN_ONLY, Study
-from .._text import BASE, COLUMNS, GRID, SHIFTS, by_class, variant_text
+from .._text import BASE, COLUMNS, by_class, variant_text
 
 
 DEFAULT = "inversion-moon-mix-metric-narrow-shift-planck"
@@ -47,16 +47,7 @@ STUDY = Study(
     band_sets=dict(UNKNOWN_ONLY),
     estimators=(BASE, DEFAULT),
     pairs=((DEFAULT, BASE),),
-    unseen=(
-        (
-            f"{DEFAULT}-loco",
-            None,
-            "classes",
-            "per-metric",
-            GRID,
-            {"peak_shifts": SHIFTS, "planck": True},
-        ),
-    ),
+    unseen=(f"{DEFAULT}-loco",),
     title="Held-out measured lamps, surface unknown, Moon told: evaluate's "
     "estimator without vs with shifted LEDs and Planck spectra",
     oracle=False,

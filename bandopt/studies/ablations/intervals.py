@@ -234,7 +234,7 @@ STUDY = Study(
     band_sets=dict(UNKNOWN_ONLY),
     estimators=(BASE, NARROW),
     pairs=((NARROW, BASE),),
-    unseen=((f"{NARROW}-loco", None, "classes", "per-metric", GRID),),
+    unseen=(f"{NARROW}-loco",),
     title="Held-out measured lamps, surface unknown, Moon told: 90 % intervals "
     "in units of the posterior's half-width vs half-width + narrowest offset",
     oracle=False,

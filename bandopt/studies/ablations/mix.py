@@ -33,19 +33,9 @@ ESTIMATORS = ("inversion-moon", "inversion-moon-mix")
 """The told-Moon inversion without and with mixtures in its priors."""
 PAIRS = (("inversion-moon-mix", "inversion-moon"),)
 """(variant, base) estimators compared paired by partition."""
-UNSEEN = (
-    ("inversion-moon", 0, "lamps", "error"),
-    ("inversion-moon-mix", None, "lamps", "error"),
-    ("inversion-moon-mix-loco", None, "classes", "error"),
-)
-"""Unseen-types runs: label, mixtures (None: `MIX_PAIRS`), interval
-calibration (`fit_inversion(calibration=)`; "classes" with mixtures is what
-`bandopt evaluate` does by default) and `σ_rel` rule (`SIGMA_RULES`;
-"per-metric" also chooses the floor from `FLOOR_GRID`); optionally a fifth,
-the interval offsets (`fit_inversion(interval_offsets=)`; several: the
-offset-0 intervals of the same fit are reported too, as "LABEL (offset 0)"),
-and a sixth, further keyword arguments of `leave_one_class_out` (e.g.
-`{"peak_shifts": ...}`, `{"planck": True}`; default none)."""
+UNSEEN = ("inversion-moon", "inversion-moon-mix", "inversion-moon-mix-loco")
+"""Unseen-types runs (`inversion.options_of`): without and with blends,
+and with blends and intervals calibrated on classes held out in turn."""
 
 
 def readme_text(summary: dict) -> str:

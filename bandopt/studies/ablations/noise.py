@@ -42,10 +42,7 @@ STUDY = Study(
     band_sets=dict(UNKNOWN_ONLY),
     estimators=(ONE, PER),
     pairs=((PER, ONE),),
-    unseen=(
-        (f"{ONE}-loco", None, "classes", "error"),
-        (f"{PER}-loco", None, "classes", "per-metric"),
-    ),
+    unseen=(f"{ONE}-loco", f"{PER}-loco"),
     title="Held-out measured lamps, surface unknown, Moon told: one band-error "
     "model vs one per metric (mean ± SD over partitions)",
     oracle=False,

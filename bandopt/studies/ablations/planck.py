@@ -29,7 +29,7 @@ from ... import photometry
 from ...datasets.lamps import library
 from ...spectra import GRID_1NM, planck_radiance
 from .._study import UNKNOWN_ONLY, Study
-from .._text import BASE, COLUMNS, GRID, by_class, variant_text
+from .._text import BASE, COLUMNS, by_class, variant_text
 
 
 PLANCK = "inversion-moon-mix-metric-narrow-planck"
@@ -95,10 +95,7 @@ STUDY = Study(
     band_sets=dict(UNKNOWN_ONLY),
     estimators=(BASE, PLANCK),
     pairs=((PLANCK, BASE),),
-    unseen=(
-        (f"{BASE}-loco", None, "classes", "per-metric", GRID),
-        (f"{PLANCK}-loco", None, "classes", "per-metric", GRID, {"planck": True}),
-    ),
+    unseen=(f"{BASE}-loco", f"{PLANCK}-loco"),
     title="Held-out measured lamps, surface unknown, Moon told: without vs with "
     "modelled incandescent (Planck) spectra in the prior",
     oracle=False,

@@ -38,10 +38,6 @@ TM30 = "inversion-moon-mix-metric-narrow-shift-planck-tm30"
 prior (`bandopt.inversion.TM30_ESTIMATOR`)."""
 
 
-(_DEFAULT_UNSEEN,) = DEFAULTS.unseen
-"""`make study NAME=estimate-defaults`' unseen-types run of evaluate's estimator."""
-
-
 def tm30_counts() -> dict:
     """The TM-30 lamps the prior gains: per level-2 class, in total, and how
     many of the set's measured entries the library's deduplication removed
@@ -96,10 +92,7 @@ STUDY = Study(
     band_sets=dict(UNKNOWN_ONLY),
     estimators=(DEFAULT, TM30),
     pairs=((TM30, DEFAULT),),
-    unseen=(
-        _DEFAULT_UNSEEN,
-        (f"{TM30}-loco", *_DEFAULT_UNSEEN[1:-1], {**_DEFAULT_UNSEEN[-1], "tm30": True}),
-    ),
+    unseen=(*DEFAULTS.unseen, f"{TM30}-loco"),
     title="Held-out measured lamps, surface unknown, Moon told: evaluate's "
     "estimator without vs with the measured IES TM-30-15 lamps in the prior",
     oracle=False,
