@@ -37,6 +37,7 @@ from . import inversion as inv_mod
 from .datasets import surfaces as surf_mod
 from .estimate import CCT_RANGE_K, METRICS, MIRED, MODEL_BOUNDS, lamp_truth
 from .folds import class_balanced_weights
+from .forward import band_values
 
 
 TILING_TOLERANCE_NM = 1.0
@@ -95,12 +96,12 @@ def direct_bands(radiance, weights, cond, reflectance, moon) -> np.ndarray:
     y = np.asarray(radiance, float)
     rho = np.broadcast_to(np.asarray(reflectance, float), (len(y), grid.size))
     te = cond.lamp_transmittance.mean(axis=0)
-    lamp_term = rho @ (weights * te[None, :] / np.pi).T  # (N, b)
+    lamp_term = np.asarray(band_values(rho * te / np.pi, weights))  # (N, b)
     if cond.moon is not None and moon is not None:
         tm = cond.t_up.mean(axis=0) * cond.moon.mean(axis=0)
-        q = rho @ (weights * tm[None, :] / np.pi).T
+        q = np.asarray(band_values(rho * tm / np.pi, weights))
         if cond.path is not None:
-            q = q + weights @ cond.path.mean(axis=0)
+            q = q + np.asarray(band_values(cond.path.mean(axis=0), weights))
         y = y - np.asarray(moon, float)[:, None] * q
     ok = lamp_term > 0
     band = np.where(ok, y / np.where(ok, lamp_term, 1.0), 0.0)
@@ -301,7 +302,7 @@ def fit_direct(ctx, bands, mode: str, *, seed: int = 0) -> DirectEstimator:
             "scenes": "the search context's (surfaces, atmospheres, Moon, noise)",
             "quantile": 0.9,
         },
-        _shape(lamps.spectra @ weights.T),
+        _shape(band_values(lamps.spectra, weights)),
         tuple(lamps.ids),
         tuple(lamps.level1),
         tuple(lamps.level2),

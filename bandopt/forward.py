@@ -6,6 +6,9 @@ Every part of bandopt (search, classify, radiometry, `simulate`, the
 inversion) measures band radiance through this module, so the same inputs and
 the same `key` give the same numbers everywhere:
 
+- `band_values`: the one contraction, spectra `(*batch, w)` x band weights
+  `(b, w)` -> `(*batch, b)`, for callers that hold the weights
+  (`band_weights_on`) or weight the spectra themselves;
 - `radiance_from_response`: the pure-JAX core, spectra `(n, w)` x responses
   `(b, w)` -> `(n, b)`, differentiable in the responses (searches jit it);
 - `band_measurement` / `band_radiance`: the same for a `ScenarioSet`
@@ -89,25 +92,39 @@ def noise_draws(key, n_rows: int, n_bands: int, dtype=None) -> Float[Array, "n b
     return cols(jnp.arange(n_bands)).T
 
 
+def band_values(
+    spectra: Float[ArrayLike, "*batch w"], weights: Float[ArrayLike, "b w"]
+) -> Float[Array, "*batch b"]:
+    """Band values `(*batch, b)` of spectra `(*batch, w)` for weights `(b, w)`
+    on the same grid: `spectra @ weightsᵀ`, one dense matmul at full
+    precision. With band-averaging weights (`band_weights_on`) it gives band
+    radiance in the unit of the spectra; with photon weights, electrons.
+    Band values of dense spectra anywhere in bandopt are this contraction
+    (a scenario set's factorised one, `scene.band_terms`, uses the same
+    weights), so one rule decides the numbers. Pure JAX, differentiable in
+    both arguments."""
+    return jnp.matmul(jnp.asarray(spectra), jnp.asarray(weights).T, precision=_HI)
+
+
 def radiance_from_response(
-    spectra: Float[ArrayLike, "n w"],
+    spectra: Float[ArrayLike, "*batch w"],
     wavelength_nm: Float[ArrayLike, " w"],
     response: Float[ArrayLike, "b w"],
     noise_z: Float[ArrayLike, "n b"] | None = None,
     sensor: SensorParams | None = None,
-) -> Float[Array, "n b"]:
-    """Band-averaged radiance `(n, b)` of spectra `(n, w)` for relative
-    responses `(b, w)` on the same grid: one dense matmul. With standard normal
-    draws `noise_z (n, b)`, photon noise of `sensor` (default Table 2.3) as in
-    the module docstring; a band with zero responsivity reads 0. Pure JAX,
-    differentiable in `response`. [W m⁻² sr⁻¹ nm⁻¹]"""
+) -> Float[Array, "*batch b"]:
+    """Band-averaged radiance `(*batch, b)` of spectra `(*batch, w)` for
+    relative responses `(b, w)` on the same grid: one dense matmul. With
+    standard normal draws `noise_z (n, b)` (n: the batch's size), photon
+    noise of `sensor` (default Table 2.3) as in the module docstring; a band
+    with zero responsivity reads 0. Pure JAX, differentiable in `response`.
+    [W m⁻² sr⁻¹ nm⁻¹]"""
     spectra = jnp.asarray(spectra)
     if noise_z is None:
-        wts = band_weights(response, wavelength_nm)
-        return jnp.matmul(spectra, wts.T, precision=_HI)
+        return band_values(spectra, band_weights(response, wavelength_nm))
     sensor = SensorParams() if sensor is None else sensor
     pw = photon_weights(response, wavelength_nm, sensor, None)
-    electrons = jnp.matmul(spectra, pw.T, precision=_HI)
+    electrons = band_values(spectra, pw)
     return _noisy_radiance(electrons, jnp.sum(pw, axis=-1), noise_z, sensor)
 
 
@@ -414,7 +431,7 @@ def band_measurement(
         clean = radiance_from_response(spectra, wl, resp)
 
         def contract(weights):
-            return jnp.matmul(spectra, weights.T, precision=_HI)
+            return band_values(spectra, weights)
 
     grid = (float(wl[0]), float(wl[-1]))
     if noise is False or noise is None:

@@ -81,7 +81,7 @@ def _atmosphere(cfg: Config):
         return None, "none requested"
     from bandopt.datasets import atmosphere as atm
 
-    if not atm.tables_available():
+    if atm.resolve_setting("auto") == "none":
         return None, "6S tables not installed (`make atmospheres`); rendered without"
     return cfg.atmosphere, (
         "6S upward transmittance at nadir: direct for the pixel's own ground, "

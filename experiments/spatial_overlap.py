@@ -56,7 +56,7 @@ def main(argv=None) -> Path:
     atmosphere = ("midlatitude_summer", "urban", 23.0)
     from bandopt.datasets import atmosphere as atm
 
-    if not atm.tables_available():  # 6S tables missing: render without atmosphere
+    if atm.resolve_setting("auto") == "none":  # no 6S tables: no atmosphere
         atmosphere = None
     dx = 1.0 if args.quick else 0.5
     scene = render(load_layout("mixed-led-hps"), bands, dx_m=dx, atmosphere=atmosphere)
@@ -64,20 +64,34 @@ def main(argv=None) -> Path:
     rows = []
     gsds = GSDS_M[1:5] if args.quick else GSDS_M
     for g in tqdm(gsds, desc="overlap", unit="GSD"):
-        rows.append(lamp_type_f1_when_overlapping(
-            scene, bands, g, per_type=per_type, seed=args.seed).as_dict())
-    (out / "overlap.json").write_text(json.dumps(
-        {"bands": source, "atmosphere": atmosphere, "dx_m": dx, "rows": rows},
-        indent=2, default=float) + "\n")
+        rows.append(
+            lamp_type_f1_when_overlapping(
+                scene, bands, g, per_type=per_type, seed=args.seed
+            ).as_dict()
+        )
+    (out / "overlap.json").write_text(
+        json.dumps(
+            {"bands": source, "atmosphere": atmosphere, "dx_m": dx, "rows": rows},
+            indent=2,
+            default=float,
+        )
+        + "\n"
+    )
     import pandas as pd
 
-    flat = [{k: v for k, v in r.items() if k != "f1_per_class"}
-            | {f"f1_{c}": f for c, f in r["f1_per_class"].items()} for r in rows]
+    flat = [
+        {k: v for k, v in r.items() if k != "f1_per_class"}
+        | {f"f1_{c}": f for c, f in r["f1_per_class"].items()}
+        for r in rows
+    ]
     pd.DataFrame(flat).to_csv(out / "overlap.csv", index=False)
     fig, ax = plt.subplots(figsize=(6, 4))
     g = [r["gsd_m"] for r in rows]
-    for key, lab in (("macro_f1", "all lit pixels"), ("f1_pure", "pure pixels"),
-                     ("f1_mixed", "mixed pixels (>= 10 % other type)")):
+    for key, lab in (
+        ("macro_f1", "all lit pixels"),
+        ("f1_pure", "pure pixels"),
+        ("f1_mixed", "mixed pixels (>= 10 % other type)"),
+    ):
         ax.plot(g, [r[key] for r in rows], "o-", label=lab)
     ax.plot(g, [r["mixed_fraction"] for r in rows], "k--", label="fraction mixed")
     ax.set_xscale("log")
@@ -89,12 +103,17 @@ def main(argv=None) -> Path:
     fig.tight_layout()
     fig.savefig(out / "overlap.png", dpi=120)
     plt.close(fig)
-    write_manifest(out / "overlap_manifest", seed=args.seed,
-                   config={**vars(args), "bands": source, "gsds_m": list(gsds)})
+    write_manifest(
+        out / "overlap_manifest",
+        seed=args.seed,
+        config={**vars(args), "bands": source, "gsds_m": list(gsds)},
+    )
     for r in rows:
-        print(f"GSD {r['gsd_m']:>5g} m  lit {r['n_lit']:>6d}  mixed "
-              f"{r['mixed_fraction']:.2f}  F1 {r['macro_f1']:.2f} (pure "
-              f"{r['f1_pure']:.2f}, mixed {r['f1_mixed']:.2f})")
+        print(
+            f"GSD {r['gsd_m']:>5g} m  lit {r['n_lit']:>6d}  mixed "
+            f"{r['mixed_fraction']:.2f}  F1 {r['macro_f1']:.2f} (pure "
+            f"{r['f1_pure']:.2f}, mixed {r['f1_mixed']:.2f})"
+        )
     return out / "overlap.json"
 
 

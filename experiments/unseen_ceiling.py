@@ -133,7 +133,11 @@ def binned_log_spectra(spectra, wavelength_nm, step_nm: float) -> np.ndarray:
 def band_log_values(spectra, band_weights) -> np.ndarray:
     """Noise-free band values of bare spectra as log fractions of their sum
     over bands: (l, w) x (b, w) -> (l, b). `band_weights`: band-averaging
-    weights on the spectra's grid (`bandopt.inversion.band_weights_on`) [1]."""
+    weights on the spectra's grid (`bandopt.inversion.band_weights_on`) [1];
+    the values are `bandopt.forward.band_values`, as every measurement's."""
+    # Lazy: importing this module stays free of JAX (its other helpers need none).
+    from bandopt.forward import band_values
+
     spectra = np.asarray(spectra, float)
     w = np.asarray(band_weights, float)
     if spectra.ndim != 2 or w.ndim != 2 or spectra.shape[1] != w.shape[1]:
@@ -141,7 +145,7 @@ def band_log_values(spectra, band_weights) -> np.ndarray:
             f"spectra (l, w) and band_weights (b, w) must share w: got "
             f"{spectra.shape} and {w.shape}."
         )
-    return _log_fractions(spectra @ w.T, "band values")
+    return _log_fractions(np.asarray(band_values(spectra, w)), "band values")
 
 
 def make_classifier(name: str):

@@ -25,6 +25,52 @@ def t_up(atmosphere, aerosol, vis, zenith=0.0, wl=GRID):
     return atm.transmittance("up", atmosphere, aerosol, vis, zenith, wl)
 
 
+# ------------------------------------------------------------------ settings
+def test_auto_is_6s_with_the_tables_and_none_without(monkeypatch):
+    assert atm.tables_available()  # shipped with the package
+    assert atm.resolve_setting("auto") == "6s"
+    assert atm.resolve_setting("6S") == "6s"  # case and separators ignored
+    assert atm.resolve_setting("None") == "none"
+    monkeypatch.setattr(atm, "tables_available", lambda: False)
+    assert atm.resolve_setting("auto") == "none"
+    assert atm.resolve_setting("none") == "none"
+
+
+def test_6s_without_the_tables_is_an_error_naming_the_option(tmp_path, monkeypatch):
+    monkeypatch.setattr(atm, "_TABLE", tmp_path / "sixs_tables.npz")
+    with pytest.raises(
+        FileNotFoundError,
+        match=r"--atmospheres '6s' needs the 6S tables, but .*sixs_tables\.npz is "
+        r"missing: regenerate them with `make atmospheres`",
+    ):
+        atm.resolve_setting("6s", option="--atmospheres")
+    assert atm.resolve_setting("auto") == "none"
+    with pytest.raises(ValueError, match=r"Unknown atmospheres 'all'; expected one of"):
+        atm.resolve_setting("all")
+
+
+def test_every_auto_caller_decides_through_resolve_setting(monkeypatch):
+    """Scenario sets, search and study tasks, and the radiometry report take
+    the tables or no atmosphere as `resolve_setting` says, and say which."""
+    from bandopt.classify import available_atmospheres
+    from bandopt.radiometry._report import resolve_atmospheres
+    from bandopt.scene import DEFAULT_ATMOSPHERES
+    from bandopt.search import make_study_task, make_task
+
+    assert available_atmospheres() == DEFAULT_ATMOSPHERES
+    assert available_atmospheres("none") == ("none",)
+    assert make_task()["atmospheres"] == make_study_task()["atmospheres"] == "6s"
+    atms, note = resolve_atmospheres("all")
+    assert len(atms) == len(atm.atmosphere_ids()) and "6S" in note
+    monkeypatch.setattr(atm, "tables_available", lambda: False)
+    assert available_atmospheres() == ("none",)
+    assert make_task()["atmospheres"] == make_study_task()["atmospheres"] == "none"
+    atms, note = resolve_atmospheres("all")
+    assert atms == ["none"] and "6S tables missing" in note
+    with pytest.raises(FileNotFoundError, match="'6s' needs the 6S tables"):
+        make_task(atmospheres="6s")
+
+
 # ------------------------------------------------------------------ spectra
 def test_o2a_band_matches_readme():
     t = t_up(*MLS_URBAN_23)

@@ -239,6 +239,28 @@ def test_simulate_cli_uplight_model_and_neighbourhood(tmp_path):
     assert np.all(frames["profile"] < frames["lambertian"])
 
 
+def test_band_values_is_the_contraction_of_every_band_radiance(scen, bands):
+    """`band_values` is `spectra @ weightsᵀ` for any leading shape, and dense
+    spectra's band radiance is it with the bands' averaging weights."""
+    from bandopt.forward import (
+        band_radiance,
+        band_values,
+        band_weights_on,
+        dense_spectra,
+    )
+
+    wl = np.asarray(scen.factors.wavelength_nm)
+    toa = np.asarray(dense_spectra(scen)).reshape(-1, wl.size)
+    w = np.asarray(band_weights_on(bands, wl))
+    got = np.asarray(band_values(toa, w))
+    np.testing.assert_allclose(got, toa @ w.T, rtol=1e-13)
+    np.testing.assert_array_equal(
+        got, np.asarray(band_radiance(toa, bands, wavelength_nm=wl))
+    )
+    stacked = np.asarray(band_values(toa.reshape(2, -1, wl.size), w))
+    np.testing.assert_array_equal(stacked.reshape(got.shape), got)
+
+
 def test_band_radiance_inputs(scen, bands):
     """Spectra need their grid; a response array on the grid equals the band
     set; noise draws of the wrong shape are refused; factors and dense spectra
@@ -324,10 +346,19 @@ def test_noisy_band_radiance_sees_the_same_draws_in_float32():
     wl = np.arange(380.0, 901.0)
     spectra = np.stack([np.ones_like(wl), 1 + wl / 900.0]) * 1e-4
     bands = BandSet.from_physical([450.0, 600.0, 800.0], [40.0, 40.0, 60.0])
-    a = np.asarray(band_radiance(jnp.asarray(spectra), bands, wavelength_nm=wl,
-                                 noise=True, key=3))
-    b = np.asarray(band_radiance(jnp.asarray(spectra, jnp.float32), bands,
-                                 wavelength_nm=wl, noise=True, key=3), float)
+    a = np.asarray(
+        band_radiance(jnp.asarray(spectra), bands, wavelength_nm=wl, noise=True, key=3)
+    )
+    b = np.asarray(
+        band_radiance(
+            jnp.asarray(spectra, jnp.float32),
+            bands,
+            wavelength_nm=wl,
+            noise=True,
+            key=3,
+        ),
+        float,
+    )
     clean = np.asarray(band_radiance(jnp.asarray(spectra), bands, wavelength_nm=wl))
     assert np.max(np.abs(a - clean) / clean) > 1e-3  # the noise is visible
     np.testing.assert_allclose(b, a, rtol=1e-4)  # float32 rounding only

@@ -201,6 +201,47 @@ def test_radiance_units_against_hand_computation():
     np.testing.assert_allclose(img.radiance[:, j, i], ref + direct, rtol=2e-5)
 
 
+def test_rendered_band_values_are_forwards_of_the_pixel_spectra():
+    """The renderer measures through `bandopt.forward`: each pixel's band
+    values equal `forward.band_radiance` of its TOA spectrum, assembled here
+    pixel by pixel from the per-type illuminance and uplight images, the lamp
+    spectra, the surface under it and the 6S upward transmittance."""
+    from bandopt import forward
+    from bandopt.datasets import atmosphere as atm
+    from bandopt.datasets.lamps import library
+    from bandopt.datasets.surfaces import mean_reflectance
+    from bandopt.spatial import SURFACE_ROLES
+    from bandopt.spectra import GRID_1NM
+
+    lamps = (
+        LampPlacement(30.0, -2.5, 8.0, "road-optic", "nist_traditional_hps", 8000.0),
+        LampPlacement(52.0, 2.5, 10.0, "lop-50", "cie_led_b3", 5000.0, 180.0),
+    )
+    lay = Layout("mix", lamps, length_m=80.0, width_m=40.0)
+    sky = ("tropical", "urban", 5.0)
+    bands = _bands()
+    img = render(lay, bands, dx_m=1.0, atmosphere=sky, neighbourhood="uniform")
+    cull = img.config["cull_fraction"]
+    e = np.asarray(illuminance_images(img.lamps, img.grid, cull_fraction=cull))
+    up = uplight_images(img.lamps, img.grid)
+    wl = np.asarray(GRID_1NM, float)
+    lib = library(wavelength_nm=wl)
+    s = np.stack([lib.values[lib.index(t)] for t in img.lamps.lamp_types])
+    _, rho = mean_reflectance([lay.surface_map[r] for r in SURFACE_ROLES], wl)
+    t_up = atm.transmittance("up", *sky, 0.0, wl)
+    # every lamp's own pixel (uplight), and pixels on each surface
+    lit = np.argwhere(up.sum(axis=0) > 0)
+    rows = np.argwhere(img.surface_idx[:, :1] >= 0)[::7, 0]
+    cols = np.full(rows.size, 30)
+    j = np.concatenate([lit[:, 0], rows])
+    i = np.concatenate([lit[:, 1], cols])
+    assert set(img.surface_idx[j, i]) == {0, 1, 2}
+    ground = (e[:, j, i].T @ s) * rho[img.surface_idx[j, i]] / math.pi
+    spectra = t_up * (ground + up[:, j, i].T @ s)  # (pixels, w)
+    ref = np.asarray(forward.band_radiance(spectra, bands, wavelength_nm=wl))
+    np.testing.assert_allclose(img.radiance[:, j, i].T, ref, rtol=1e-12)
+
+
 def test_uplight_goes_into_the_lamp_pixel():
     lay, lamps = _one("lop-50", h=8.0, flux=1000.0, x=20.1, y=0.1)
     grid = scene_grid(lay, 0.5)

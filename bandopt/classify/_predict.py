@@ -29,9 +29,12 @@ TRAINING_SCENARIOS = dict(
 `bandopt.scene` defaults)."""
 
 
-def available_atmospheres() -> tuple:
-    """The default 6S atmospheres if their tables load, else `("none",)`."""
-    return DEFAULT_ATMOSPHERES if atmosphere.tables_available() else ("none",)
+def available_atmospheres(setting: str = "auto") -> tuple:
+    """The scenario atmospheres an atmosphere `setting` ("auto", "6s" or
+    "none") gives: the default 6S atmospheres when it resolves to "6s"
+    (`datasets.atmosphere.resolve_setting`), else `("none",)`."""
+    six_s = atmosphere.resolve_setting(setting) == "6s"
+    return DEFAULT_ATMOSPHERES if six_s else ("none",)
 
 
 @functools.lru_cache(maxsize=2)

@@ -257,7 +257,7 @@ def run(args) -> int:
     warnings = {
         src: band_set_warnings(bands, src, log=sys.stderr) for src, bands in band_sets
     }
-    atms = available_atmospheres() if args.atmospheres == "auto" else ("none",)
+    atms = available_atmospheres(args.atmospheres)
     kw = QUICK if args.scenarios == "quick" else TRAINING_SCENARIOS
     table = scenario_table(build_scenarios(scored_only=True, atmospheres=atms, **kw))
     noise = not args.no_noise

@@ -541,13 +541,13 @@ def run(args) -> int:
     import math
     import sys
 
-    import jax.numpy as jnp
     import numpy as np
 
     from ..estimate import METRICS, truth_with_reasons
     from ..estimators import Surface
+    from ..forward import band_radiance
     from ..photometry import ler as ler_fn
-    from ..scene import band_weights, class_illuminance_lx
+    from ..scene import class_illuminance_lx
     from ..search import get_context
     from ..spectra import GRID_1NM
     from ._checks import band_set_warnings
@@ -596,11 +596,9 @@ def run(args) -> int:
     fitted = _fit(args, ctx, bands, mode)
     desc, rep = fitted.description, fitted.report()
     e_lx = class_illuminance_lx(SCENE["lighting_class"])
-    resp = np.asarray(bands.response(jnp.asarray(grid)))
-    wts = np.asarray(band_weights(jnp.asarray(resp), jnp.asarray(grid)))
     vis = (grid >= 380) & (grid <= 780)
 
-    truths, true_why, notes, band_rad, owner = [], [], [], [], []
+    truths, true_why, notes, at_sensor, owner = [], [], [], [], []
     for k, (candidates, note) in enumerate(lamps):
         values = candidates[0]  # the truth is visible-only: any candidate
         truth, why = truth_with_reasons(values[None], grid)
@@ -610,7 +608,7 @@ def run(args) -> int:
         )
         for cand in candidates:  # one row per NIR candidate, most likely first
             per_lx = cand / lumens  # spectral irradiance per lux [W m-2 nm-1 lx-1]
-            band_rad.append(wts @ (e_lx * refl / math.pi * per_lx))
+            at_sensor.append(e_lx * refl / math.pi * per_lx)  # no atmosphere
             owner.append(k)
         truths.append(
             {
@@ -621,7 +619,9 @@ def run(args) -> int:
         true_why.append(why[0])
         if note:
             notes.append(note)
-    band_rad = np.asarray(band_rad)
+    band_rad = np.asarray(
+        band_radiance(np.asarray(at_sensor), bands, wavelength_nm=grid)
+    )
     notes += [{**n, "prior_lamp": True} for _, n in prior_loaded if n]
     surface = Surface(mode, knowledge if mode == "class" else None, refl)
     est = fitted.predict(band_rad, surface)

@@ -23,6 +23,8 @@ atmospheres x 3 aerosol models x 3 visibilities, zenith angles 0-75°.
 - `path_reflectance`: 6S's atmospheric intrinsic reflectance ρ_atm with the
   Moon as illuminant, so that ``L_path = ρ_atm · E_moon,TOA · cos θ_moon / π``
   (`path_radiance`).
+- `resolve_setting`: what an "auto" | "6s" | "none" setting gives here (the
+  one availability decision; `tables_available`, `require_tables`).
 
 Interpolation (stated once, used everywhere):
 
@@ -51,7 +53,7 @@ from pathlib import Path
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
-from ..names import CanonicalMapping, canonical_key
+from ..names import CanonicalMapping, canonical_key, validate_method
 from ..spectra import GRID_1NM
 
 
@@ -375,19 +377,54 @@ def table_info() -> dict:
     return info
 
 
+SETTINGS: tuple[str, ...] = ("auto", "6s", "none")
+"""What a caller may ask for (`resolve_setting`): "auto" (the 6S tables when
+installed, else no atmosphere), "6s" (the tables, an error without them) or
+"none" (no atmosphere: T = 1, no path radiance)."""
+
+
+def _missing_table() -> Path | None:
+    """The first table file that is not installed, or None."""
+    return next((p for p in (_TABLE, _META) if not p.is_file()), None)
+
+
 def tables_available() -> bool:
-    """Whether the 6S tables are installed (`make atmospheres` builds them).
-    The one availability check of bandopt: callers with an "auto" setting use
-    it and record the choice; callers that need the tables call
-    `require_tables`."""
-    return _TABLE.is_file() and _META.is_file()
+    """Whether the 6S tables are installed (`make atmospheres` builds them)."""
+    return _missing_table() is None
 
 
 def require_tables() -> None:
     """`FileNotFoundError` naming the missing file and `make atmospheres`
     unless `tables_available()`."""
-    for path in (_TABLE, _META):
-        if not path.is_file():
-            raise FileNotFoundError(
-                f"{path} is missing: regenerate the 6S tables with `make atmospheres`."
-            )
+    path = _missing_table()
+    if path is not None:
+        raise FileNotFoundError(
+            f"{path} is missing: regenerate the 6S tables with `make atmospheres`."
+        )
+
+
+def resolve_setting(setting: str = "auto", *, option: str = "atmospheres") -> str:
+    """What an atmosphere `setting` of `SETTINGS` gives on this installation:
+    "6s" or "none".
+
+    The one place bandopt decides between the 6S tables and no atmosphere, so
+    every part decides alike: "auto" is "6s" when `tables_available()`, else
+    "none"; "6s" needs the tables; "none" is "none". Callers record the
+    returned value, not the request, so a result says which atmosphere made
+    it. Case and separators are ignored ("6S").
+
+    `option` names the setting in errors (e.g. "--atmospheres"). Raises
+    `ValueError` for a setting outside `SETTINGS` and `FileNotFoundError`
+    naming `option`, the missing file and `make atmospheres` when "6s" is
+    asked without the tables.
+    """
+    value = validate_method(setting, SETTINGS, option)
+    if value == "auto":
+        return "6s" if tables_available() else "none"
+    if value == "6s" and not tables_available():
+        path = _missing_table() or _TABLE
+        raise FileNotFoundError(
+            f"{option} {setting!r} needs the 6S tables, but {path} is missing: "
+            "regenerate them with `make atmospheres`, or ask for 'auto' or 'none'."
+        )
+    return value

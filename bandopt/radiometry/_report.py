@@ -126,16 +126,17 @@ class RadiometryConfig:
 
 def resolve_atmospheres(spec) -> tuple[list, str]:
     """`"all"` -> every 6S combination, `"none"` -> no atmosphere, else the
-    list itself; "all" falls back to "none" when the tables are missing."""
+    list itself, with a note saying which. Anything but "none" is asked as
+    "auto" (`datasets.atmosphere.resolve_setting`): without the 6S tables it
+    falls back to "none", stated in the note."""
 
     if isinstance(spec, str) and spec.lower() == "none":
         return ["none"], "no atmosphere (T = 1, no path radiance)"
-    try:
-        atm.transmittance(
-            "up", "midlatitude_summer", "urban", 23.0, 0.0, np.array([550.0])
+    if atm.resolve_setting("auto") == "none":
+        return ["none"], (
+            f"6S tables missing in {atm.DATA_DIR} (`make atmospheres`); "
+            "ran without atmosphere"
         )
-    except FileNotFoundError as err:
-        return ["none"], f"6S tables missing ({err}); ran without atmosphere"
     if isinstance(spec, str) and spec.lower() == "all":
         ids = atm.atmosphere_ids()
         return list(ids), f"all {len(ids)} 6S combinations"

@@ -156,17 +156,8 @@ def get_context(
     perturbations = kw.pop("perturbations", None)
     over, noisy, level = parse_noise(noise)
     kw.update(over)
-    if atmospheres == "auto":
-        atms = ATMOSPHERES_6S if atmosphere.tables_available() else ("none",)
-    elif atmospheres == "6s":
-        atmosphere.require_tables()
-        atms = ATMOSPHERES_6S
-    elif atmospheres == "none":
-        atms = ("none",)
-    else:
-        raise ValueError(
-            f"atmospheres must be 'auto', '6s' or 'none', got {atmospheres!r}."
-        )
+    six_s = atmosphere.resolve_setting(atmospheres) == "6s"
+    atms = ATMOSPHERES_6S if six_s else ("none",)
     scen = build_scenarios(scored_only=True, atmospheres=atms, **kw)
     lib = library().select(scored_only=True)
     if tuple(lib.ids) != scen.lamp_ids:

@@ -217,8 +217,8 @@ def make_study_task(**kw) -> dict:
     if unknown:
         raise ValueError(f"Unknown study task fields {sorted(unknown)}.")
     t = {**STUDY_TASK, **kw}
-    if t["atmospheres"] == "auto":
-        t["atmospheres"] = "6s" if atmosphere.tables_available() else "none"
+    # resolved now, so the task's hash says which atmosphere was used
+    t["atmospheres"] = atmosphere.resolve_setting(t["atmospheres"])
     return t
 
 

@@ -100,9 +100,8 @@ def make_task(**kwargs) -> dict:
         )
     task = {**DEFAULT_TASK, **kwargs}
     task["target"] = resolve_target(task["target"])
-    if task["atmospheres"] == "auto":
-        # Resolve now, so the task's hash (its result file) says which was used.
-        task["atmospheres"] = "6s" if atmosphere.tables_available() else "none"
+    # Resolve now, so the task's hash (its result file) says which was used.
+    task["atmospheres"] = atmosphere.resolve_setting(task["atmospheres"])
     return task
 
 
@@ -236,9 +235,7 @@ class TaskResult:
         return cls(**kw)
 
 
-def run_task(
-    task: dict, progress=None, *, results: dict | None = None
-) -> TaskResult:
+def run_task(task: dict, progress=None, *, results: dict | None = None) -> TaskResult:
     """Run one task (see module docstring) and return its `TaskResult`
     (`to_dict()` is JSON-ready).
 

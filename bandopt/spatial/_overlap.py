@@ -23,8 +23,8 @@ from ._imaging import resample_to_gsd, sensor_image
 from ._render import (
     SceneImage,
     band_factors,
-    band_radiance,
     illuminance_images,
+    radiance_image,
     uplight_images,
 )
 
@@ -69,15 +69,25 @@ def per_type_radiance(scene: SceneImage, bands) -> np.ndarray:
     resp = np.asarray(bands.response(jnp.asarray(wl)))
     atm = scene.config.get("atmosphere")
     kg, ku = band_factors(
-        lamps.lamp_types, scene.layout.surface_map, resp, wavelength_nm=wl,
+        lamps.lamp_types,
+        scene.layout.surface_map,
+        resp,
+        wavelength_nm=wl,
         atmosphere=None if atm is None else tuple(atm),
     )
     out = []
     for t in range(len(lamps.lamp_types)):
-        out.append(np.asarray(band_radiance(
-            e[t : t + 1], jnp.asarray(up[t : t + 1], e.dtype), scene.surface_idx,
-            kg[t : t + 1], ku[t : t + 1],
-        )))
+        out.append(
+            np.asarray(
+                radiance_image(
+                    e[t : t + 1],
+                    jnp.asarray(up[t : t + 1], e.dtype),
+                    scene.surface_idx,
+                    kg[t : t + 1],
+                    ku[t : t + 1],
+                )
+            )
+        )
     return np.stack(out)
 
 

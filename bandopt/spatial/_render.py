@@ -13,9 +13,10 @@ straight up, `Φ I(·, 180°) S_l` [W sr⁻¹ nm⁻¹], is seen directly by a
 nadir-viewing sensor; it is spread over the ground pixel below the luminaire,
 giving radiance `Φ I(·,180°) S_l / Δx²`. Both reach the sensor through the
 atmosphere (a 6S table, `bandopt.datasets.atmosphere`; `None`: no atmosphere)
-and are reduced to band-averaged radiance with `bandopt.scene.band_weights`
-(thesis Eq. 2.14). The result is top-of-atmosphere radiance
-[W m⁻² sr⁻¹ nm⁻¹].
+and are reduced to band-averaged radiance by `bandopt.forward.band_radiance`
+(thesis Eq. 2.14), the measurement every part of bandopt uses: once per lamp
+type and surface (`band_factors`), since the image is linear in them. The
+result is top-of-atmosphere radiance [W m⁻² sr⁻¹ nm⁻¹].
 
 **Adjacency** (the pixel/background split of 6S, `Vermote1997`, as in
 `bandopt.scene`): a pixel's own ground-leaving radiance `L(x)` arrives through
@@ -58,9 +59,9 @@ from jaxtyping import Array, ArrayLike, Float
 from ..datasets import atmosphere as atm
 from ..datasets.lamps import library
 from ..datasets.surfaces import mean_reflectance
+from ..forward import band_radiance
 from ..scene import (
     DEFAULT_NEIGHBOURHOOD,
-    band_weights,
     class_illuminance_lx,
     resolve_neighbourhood,
 )
@@ -393,9 +394,11 @@ def band_factors(
     """Band-averaged radiance per unit illuminance and per unit uplight.
 
     Returns `K_ground` (t, s, b) [W m⁻² sr⁻¹ nm⁻¹ lx⁻¹] = `Σ_λ w_b T ρ_s/π S_t`
-    and `K_up` (t, b) [W m⁻² sr⁻¹ nm⁻¹ per cd m⁻²] = `Σ_λ w_b T S_t`, with
-    `w_b` from `bandopt.scene.band_weights` (band-averaged, Eq. 2.14),
-    surfaces in `SURFACE_ROLES` order and `T` the upward transmittance's
+    and `K_up` (t, b) [W m⁻² sr⁻¹ nm⁻¹ per cd m⁻²] = `Σ_λ w_b T S_t`: the
+    band radiance (`bandopt.forward.band_radiance`, band-averaged, Eq. 2.14)
+    of the spectra `T ρ_s/π S_t` and `T S_t` for the band `response` on
+    `wavelength_nm`, surfaces in `SURFACE_ROLES` order and `T` the upward
+    transmittance's
     `part` (``"total"``, ``"direct"`` or ``"diffuse"``; without an atmosphere
     the direct part is 1 and the diffuse 0).
     """
@@ -413,21 +416,23 @@ def band_factors(
         t_up = np.zeros_like(wl) if part == "diffuse" else np.ones_like(wl)
     else:
         t_up = atm.transmittance("up", *atmosphere, view_zenith_deg, wl, part=part)
-    w = np.asarray(band_weights(jnp.asarray(response), jnp.asarray(wl)))  # (b, w)
-    tw = t_up[None, :] * w
-    k_ground = np.einsum("tw,sw,bw->tsb", s, rho / math.pi, tw)
-    k_up = np.einsum("tw,bw->tb", s, tw)
-    return k_ground, k_up
+    up = s * t_up[None, :]  # (t, w) per cd m⁻²
+    ground = up[:, None, :] * (rho / math.pi)[None, :, :]  # (t, s, w) per lx
+    k_ground = band_radiance(ground, response, wavelength_nm=wl)
+    k_up = band_radiance(up, response, wavelength_nm=wl)
+    return np.asarray(k_ground), np.asarray(k_up)
 
 
-def band_radiance(
+def radiance_image(
     illuminance: Float[Array, "t ny nx"],
     uplight: Float[ArrayLike, "t ny nx"],
     surface_idx: np.ndarray,
     k_ground: Float[ArrayLike, "t s b"],
     k_up: Float[ArrayLike, "t b"],
 ) -> Float[Array, "b ny nx"]:
-    """TOA band radiance `Σ_t E_t K_ground[t, s(x)] + U_t K_up[t]`. [W m⁻² sr⁻¹ nm⁻¹]"""
+    """TOA band radiance image `Σ_t E_t K_ground[t, s(x)] + U_t K_up[t]` from
+    the illuminance `E_t` [lx] and uplight `U_t` [cd m⁻²] images of each lamp
+    type and the band factors of `band_factors`. [W m⁻² sr⁻¹ nm⁻¹]"""
     onehot = jax.nn.one_hot(
         jnp.asarray(surface_idx),
         k_ground.shape[1],
@@ -512,7 +517,7 @@ def render(
             atmosphere=atmosphere,
             part=part,
         )
-        return band_radiance(e, up, sidx, kg, ku), kg
+        return radiance_image(e, up, sidx, kg, ku), kg
 
     if atmosphere is None or hood.is_uniform:
         rad, kg = through("total")
