@@ -36,6 +36,7 @@ from bandopt.studies import (
     diff_cells,
     held_out_by_class,
     held_out_overall,
+    unseen_records,
     where_lines,
 )
 
@@ -56,12 +57,9 @@ and place of the acquisition), and the bounded ridge."""
 LOCO = "inversion-moon-loco"
 """`bandopt.inversion.MOON_UNSEEN_ESTIMATOR`, scored on the scenes of `make
 estimate` only (its point estimates are `inversion-moon`'s)."""
-UNSEEN = (
-    ("inversion", False, "lamps"),
-    ("inversion-moon", True, "lamps"),
-    (LOCO, True, "classes"),
-)
-"""Unseen-types runs: label, Moon told, interval calibration."""
+UNSEEN = ("inversion", "inversion-moon", LOCO)
+"""Unseen-types runs (`bandopt.inversion.options_of`): the Moon fitted,
+told, and told with intervals calibrated on classes held out in turn."""
 
 
 def log(msg: str) -> None:
@@ -236,10 +234,8 @@ def main(argv=None) -> int:
 
     unseen = {}
     ctx = get_context("search", None, 0, "auto")
-    for label, known, calibration in UNSEEN:
-        recs = inv_mod.leave_one_class_out(
-            ctx, band_set("recommended"), moon_known=known, calibration=calibration
-        )
+    for label in UNSEEN:
+        recs = unseen_records(ctx, band_set("recommended"), label)
         unseen[label] = {
             "by_class": held_out_by_class(recs),
             "overall": held_out_overall(recs),
@@ -271,8 +267,12 @@ def main(argv=None) -> int:
             "estimators": list(ESTIMATORS),
             "estimators_on_make_estimate_scenes": [*ESTIMATORS, LOCO],
             "unseen_types": [
-                {"label": a, "moon_known": b, "interval_calibration": c}
-                for a, b, c in UNSEEN
+                {
+                    "label": u,
+                    "moon_known": inv_mod.options_of(u).moon_told,
+                    "interval_calibration": inv_mod.options_of(u).calibration,
+                }
+                for u in UNSEEN
             ],
             "scored_lamps": "measured lamps only",
             "training_lamps": "measured lamps only",

@@ -90,4 +90,4 @@ def test_coverage_column_and_where_held_out_classes_went():
     assert "| ridge |" in text and text.count("| n/a |") >= 1
     assert "hps → led 0.70, hid 0.20, lps 0.05" in text and "x 0.05" not in text
     assert "mercury →" not in text
-    assert [u[0] for u in em.UNSEEN] == ["inversion", "inversion-moon", em.LOCO]
+    assert list(em.UNSEEN) == ["inversion", "inversion-moon", em.LOCO]

@@ -24,6 +24,7 @@ from ._study import (
     manifest_config as manifest_config,
     oracle as oracle,
     run as run,
+    unseen_records as unseen_records,
 )
 from ._text import (
     BASE as BASE,

@@ -163,6 +163,26 @@ def _planck_used(study: Study) -> bool:
     )
 
 
+def unseen_records(ctx, bands, label: str) -> list[dict]:
+    """Records of the named variant `label` (`inversion.options_of`) on
+    unseen lamp types: each scored class of `ctx` held out in turn
+    (`inversion.leave_one_class_out`)."""
+    opts = inv_mod.options_of(label)
+    return inv_mod.leave_one_class_out(
+        ctx,
+        bands,
+        moon_known=opts.moon_told,
+        mixtures=opts.mixtures,
+        calibration=opts.calibration,
+        sigma_rule=opts.sigma_rule,
+        floor_grid=opts.floor_grid,
+        interval_offsets=opts.interval_offsets,
+        peak_shifts=opts.peak_shifts_nm,
+        planck=opts.planck,
+        tm30=opts.tm30,
+    )
+
+
 def _options_json(opts) -> dict:
     """A variant's options as JSON values (tuples as lists)."""
     return {
@@ -250,20 +270,7 @@ def run(study: Study, argv=None) -> int:
     unseen = {}
     if not args.no_unseen:
         for label in study.unseen:
-            opts = inv_mod.options_of(label)
-            recs = inv_mod.leave_one_class_out(
-                ctx0,
-                rec_bands,
-                moon_known=opts.moon_told,
-                mixtures=opts.mixtures,
-                calibration=opts.calibration,
-                sigma_rule=opts.sigma_rule,
-                floor_grid=opts.floor_grid,
-                interval_offsets=opts.interval_offsets,
-                peak_shifts=opts.peak_shifts_nm,
-                planck=opts.planck,
-                tm30=opts.tm30,
-            )
+            recs = unseen_records(ctx0, rec_bands, label)
             for tag, rs in by_intervals(recs).items():
                 key = label if tag in (None, "narrowest") else f"{label} ({tag})"
                 unseen[key] = {
