@@ -141,6 +141,28 @@ def test_sentinel2_responses_and_surface_retrieval(basis):
     assert np.all(rec_band[:, names.index("B08")] > 3 * rec_band[:, names.index("B04")])
 
 
+def test_surface_basis_is_cached_per_grid_types_and_rank(basis):
+    """The cached basis is the computed one, each call owns its arrays (a
+    caller modifying one changes no later call's), and a different grid,
+    set of types or rank is a different basis."""
+    from bandopt.inversion import _surfaces
+
+    fresh = _surfaces._computed_surface_basis(GRID.copy(), inv_mod.PRIOR_SURFACES, 12)
+    again = inv_mod.surface_basis(GRID)
+    for f in ("wavelength_nm", "mean", "basis", "scale", "type_coords"):
+        np.testing.assert_array_equal(getattr(again, f), getattr(fresh, f))
+        assert not np.shares_memory(getattr(again, f), getattr(basis, f))
+    assert again.types == fresh.types
+    again.mean[:] = 0.0
+    np.testing.assert_array_equal(inv_mod.surface_basis(GRID).mean, fresh.mean)
+    assert inv_mod.surface_basis(GRID, rank=6).basis.shape == (6, GRID.size)
+    two = inv_mod.surface_basis(GRID, ("asphalt", "grass"))
+    assert two.types == ("asphalt", "grass") and two.type_coords.shape[0] == 2
+    coarse = inv_mod.surface_basis(GRID[::5])
+    np.testing.assert_array_equal(coarse.wavelength_nm, GRID[::5])
+    assert coarse.mean.shape == coarse.basis.shape[1:] == (GRID[::5].size,)
+
+
 def test_surface_modes_validate_input(basis):
     with pytest.raises(ValueError, match="surface mode"):
         inv_mod.surface_candidates(basis, "psychic", 1)
@@ -237,8 +259,7 @@ def test_smaller_library_keeps_a_share_of_each_class():
     again = inv_mod._smaller_library(split, classes, 0.5, 0, 0)
     assert np.array_equal(again.train, small.train)
     other = [
-        inv_mod._smaller_library(split, classes, 0.5, 0, f).train
-        for f in range(1, 6)
+        inv_mod._smaller_library(split, classes, 0.5, 0, f).train for f in range(1, 6)
     ]
     assert any(not np.array_equal(o, small.train) for o in other)
 
@@ -402,8 +423,13 @@ def test_shared_candidate_path_matches_the_per_pixel_path(moon):
     y[:5] = 0.0  # dark pixels stay finite
     sig = np.array([[0.01, 1e-3], [0.05, 0.01], [0.2, 1e-3]])  # (σ_rel, floor)
     lk, chi = inv_mod._score(
-        y, np.repeat(cand[None], n, 0), np.repeat(log_ps[None], n, 0),
-        amat, q, log_pk, sig,
+        y,
+        np.repeat(cand[None], n, 0),
+        np.repeat(log_ps[None], n, 0),
+        amat,
+        q,
+        log_pk,
+        sig,
     )
     ref_lk, ref_chi = inv_mod._score_chunk(
         jnp.asarray(y),
