@@ -144,23 +144,39 @@ def test_sentinel2_responses_and_surface_retrieval(basis):
 def test_surface_basis_is_cached_per_grid_types_and_rank(basis):
     """The cached basis is the computed one, each call owns its arrays (a
     caller modifying one changes no later call's), and a different grid,
-    set of types or rank is a different basis."""
+    set of types or rank is a different basis. Two types on a 5 nm grid:
+    each uncached basis here is a small SVD."""
     from bandopt.inversion import _surfaces
 
-    fresh = _surfaces._computed_surface_basis(GRID.copy(), inv_mod.PRIOR_SURFACES, 12)
-    again = inv_mod.surface_basis(GRID)
-    for f in ("wavelength_nm", "mean", "basis", "scale", "type_coords"):
+    fields = ("wavelength_nm", "mean", "basis", "scale", "type_coords")
+    types, grid = ("asphalt", "grass"), GRID[::5]
+    fresh = _surfaces._computed_surface_basis(grid.copy(), types, 4)
+    first = inv_mod.surface_basis(grid, types, 4)
+    again = inv_mod.surface_basis(grid, types, 4)
+    for f in fields:
+        np.testing.assert_array_equal(getattr(first, f), getattr(fresh, f))
         np.testing.assert_array_equal(getattr(again, f), getattr(fresh, f))
-        assert not np.shares_memory(getattr(again, f), getattr(basis, f))
-    assert again.types == fresh.types
-    again.mean[:] = 0.0
-    np.testing.assert_array_equal(inv_mod.surface_basis(GRID).mean, fresh.mean)
-    assert inv_mod.surface_basis(GRID, rank=6).basis.shape == (6, GRID.size)
-    two = inv_mod.surface_basis(GRID, ("asphalt", "grass"))
-    assert two.types == ("asphalt", "grass") and two.type_coords.shape[0] == 2
-    coarse = inv_mod.surface_basis(GRID[::5])
-    np.testing.assert_array_equal(coarse.wavelength_nm, GRID[::5])
-    assert coarse.mean.shape == coarse.basis.shape[1:] == (GRID[::5].size,)
+        assert not np.shares_memory(getattr(again, f), getattr(first, f))
+    assert again.types == fresh.types == types
+    first.mean[:] = 0.0
+    first.basis[:] = 0.0
+    np.testing.assert_array_equal(
+        inv_mod.surface_basis(grid, types, 4).mean, fresh.mean
+    )
+    np.testing.assert_array_equal(
+        inv_mod.surface_basis(grid, types, 4).basis, fresh.basis
+    )
+    assert inv_mod.surface_basis(grid, types, 3).basis.shape == (3, grid.size)
+    one = inv_mod.surface_basis(grid, ("asphalt",), 4)
+    assert one.types == ("asphalt",) and one.type_coords.shape[0] == 1
+    coarse = inv_mod.surface_basis(GRID[::10], types, 4)
+    np.testing.assert_array_equal(coarse.wavelength_nm, GRID[::10])
+    assert coarse.mean.shape == coarse.basis.shape[1:] == (GRID[::10].size,)
+    # the default basis (the fixture's): equal, and not the same arrays
+    default = inv_mod.surface_basis(GRID)
+    for f in fields:
+        np.testing.assert_array_equal(getattr(default, f), getattr(basis, f))
+        assert not np.shares_memory(getattr(default, f), getattr(basis, f))
 
 
 def test_surface_modes_validate_input(basis):
