@@ -141,6 +141,44 @@ def test_sentinel2_responses_and_surface_retrieval(basis):
     assert np.all(rec_band[:, names.index("B08")] > 3 * rec_band[:, names.index("B04")])
 
 
+def test_surface_basis_is_cached_per_grid_types_and_rank(basis):
+    """The cached basis is the computed one, each call owns its arrays (a
+    caller modifying one changes no later call's), and a different grid,
+    set of types or rank is a different basis. Two types on a 5 nm grid:
+    each uncached basis here is a small SVD."""
+    from bandopt.inversion import _surfaces
+
+    fields = ("wavelength_nm", "mean", "basis", "scale", "type_coords")
+    types, grid = ("asphalt", "grass"), GRID[::5]
+    fresh = _surfaces._computed_surface_basis(grid.copy(), types, 4)
+    first = inv_mod.surface_basis(grid, types, 4)
+    again = inv_mod.surface_basis(grid, types, 4)
+    for f in fields:
+        np.testing.assert_array_equal(getattr(first, f), getattr(fresh, f))
+        np.testing.assert_array_equal(getattr(again, f), getattr(fresh, f))
+        assert not np.shares_memory(getattr(again, f), getattr(first, f))
+    assert again.types == fresh.types == types
+    first.mean[:] = 0.0
+    first.basis[:] = 0.0
+    np.testing.assert_array_equal(
+        inv_mod.surface_basis(grid, types, 4).mean, fresh.mean
+    )
+    np.testing.assert_array_equal(
+        inv_mod.surface_basis(grid, types, 4).basis, fresh.basis
+    )
+    assert inv_mod.surface_basis(grid, types, 3).basis.shape == (3, grid.size)
+    one = inv_mod.surface_basis(grid, ("asphalt",), 4)
+    assert one.types == ("asphalt",) and one.type_coords.shape[0] == 1
+    coarse = inv_mod.surface_basis(GRID[::10], types, 4)
+    np.testing.assert_array_equal(coarse.wavelength_nm, GRID[::10])
+    assert coarse.mean.shape == coarse.basis.shape[1:] == (GRID[::10].size,)
+    # the default basis (the fixture's): equal, and not the same arrays
+    default = inv_mod.surface_basis(GRID)
+    for f in fields:
+        np.testing.assert_array_equal(getattr(default, f), getattr(basis, f))
+        assert not np.shares_memory(getattr(default, f), getattr(basis, f))
+
+
 def test_surface_modes_validate_input(basis):
     with pytest.raises(ValueError, match="surface mode"):
         inv_mod.surface_candidates(basis, "psychic", 1)
@@ -237,8 +275,7 @@ def test_smaller_library_keeps_a_share_of_each_class():
     again = inv_mod._smaller_library(split, classes, 0.5, 0, 0)
     assert np.array_equal(again.train, small.train)
     other = [
-        inv_mod._smaller_library(split, classes, 0.5, 0, f).train
-        for f in range(1, 6)
+        inv_mod._smaller_library(split, classes, 0.5, 0, f).train for f in range(1, 6)
     ]
     assert any(not np.array_equal(o, small.train) for o in other)
 
@@ -402,8 +439,13 @@ def test_shared_candidate_path_matches_the_per_pixel_path(moon):
     y[:5] = 0.0  # dark pixels stay finite
     sig = np.array([[0.01, 1e-3], [0.05, 0.01], [0.2, 1e-3]])  # (σ_rel, floor)
     lk, chi = inv_mod._score(
-        y, np.repeat(cand[None], n, 0), np.repeat(log_ps[None], n, 0),
-        amat, q, log_pk, sig,
+        y,
+        np.repeat(cand[None], n, 0),
+        np.repeat(log_ps[None], n, 0),
+        amat,
+        q,
+        log_pk,
+        sig,
     )
     ref_lk, ref_chi = inv_mod._score_chunk(
         jnp.asarray(y),

@@ -178,3 +178,24 @@ def test_classes_without_measured_nir_are_never_validated(lib):
         if r.extended and r.level2 not in with_nir:
             assert r.extension_validated is False, r.id
             assert "no measured near-infrared" in r.nir_note, r.id
+
+
+def test_classes_with_measured_nir_is_cached_per_lspdd_setting(monkeypatch):
+    """The cached answer is the one screening the measured spectra again gives,
+    for each LSPDD setting, and the setting (argument or environment) is
+    resolved before the cache, so switching LSPDD off still changes the set."""
+    from bandopt.datasets import _lamp_sources as src
+
+    def fresh(lspdd):
+        return frozenset(
+            m["level2"]
+            for m in src.measured_nir_spectra(lspdd)
+            if m["nir_quality"] is None and m["level2"] is not None
+        )
+
+    for lspdd in (True, False):
+        assert src.classes_with_measured_nir(lspdd) == fresh(lspdd)
+    monkeypatch.setenv(src.LSPDD_ENV, "0")
+    assert src.classes_with_measured_nir() == fresh(False)
+    monkeypatch.setenv(src.LSPDD_ENV, "1")
+    assert src.classes_with_measured_nir() == fresh(True)

@@ -344,6 +344,17 @@ def classes_with_measured_nir(lspdd: bool | None = None) -> frozenset[str]:
     """Level-2 classes with at least one lamp whose measured near-infrared is
     usable evidence (`nir_quality` None). An extended lamp of any other class
     is never flagged validated, whatever its technology."""
+    return _classes_with_measured_nir(lspdd_enabled(lspdd))
+
+
+@functools.cache
+def _classes_with_measured_nir(lspdd: bool) -> frozenset[str]:
+    """`classes_with_measured_nir` for a resolved LSPDD setting, computed once
+    per process: it screens every measured spectrum (`measured_nir_spectra`,
+    ~45 ms) and `bandopt.datasets.nir.extension_error` asks it for every
+    near-infrared variant of every lamp a prior holds (thousands per fit).
+    The spectra it reads are themselves cached (`_classified`), so the answer
+    cannot change within a process; the result is immutable."""
     return frozenset(
         m["level2"]
         for m in measured_nir_spectra(lspdd)

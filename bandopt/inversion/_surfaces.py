@@ -84,13 +84,42 @@ class SurfaceBasis:
         return self.coords(np.vstack([mean, s]))
 
 
+_SURFACE_BASES: dict = {}
+"""`surface_basis` results by (grid bytes, grid shape, types, rank)."""
+
+
 def surface_basis(
     wavelength_nm,
     types: Sequence[str] = PRIOR_SURFACES,
     rank: int = SURFACE_RANK,
 ) -> SurfaceBasis:
-    """Type-balanced weighted PCA of every library reflectance of `types`."""
+    """Type-balanced weighted PCA of every library reflectance of `types`.
+
+    Computed once per grid, types and rank in a process: the SVD of every
+    library reflectance takes seconds, and fits, estimators and contexts ask
+    for the same basis many times. The library's surface sets are cached and
+    read-only, so the basis cannot change within a process; every call
+    returns its own copies of the arrays, so a caller that modifies one
+    changes no other caller's."""
     grid = np.asarray(wavelength_nm, float)
+    key = (grid.tobytes(), grid.shape, tuple(types), int(rank))
+    if key not in _SURFACE_BASES:
+        _SURFACE_BASES[key] = _computed_surface_basis(grid.copy(), types, rank)
+    b = _SURFACE_BASES[key]
+    return SurfaceBasis(
+        b.wavelength_nm.copy(),
+        b.mean.copy(),
+        b.basis.copy(),
+        b.scale.copy(),
+        b.types,
+        b.type_coords.copy(),
+    )
+
+
+def _computed_surface_basis(
+    grid: np.ndarray, types: Sequence[str], rank: int
+) -> SurfaceBasis:
+    """`surface_basis` computed (not cached)."""
     rows, wts, means = [], [], []
     for t in types:
         s = surf_mod.surface(t).resample(grid)
