@@ -194,7 +194,7 @@ def test_candidate_extensions_merge_their_top_two():
 def test_evaluate_describes_the_calibration_it_has(fits):
     """The JSON description names the known-type fit and the held-out types'
     ECE and flag rate from the fit's own diagnostics."""
-    from bandopt.cli._cmd_evaluate import _probability_text
+    from bandopt.estimators._inversion import _probability_text
 
     _, cal = fits
     g = cal.diagnostics["probabilities"]["groups"]
