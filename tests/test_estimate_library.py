@@ -1,4 +1,4 @@
-"""`experiments/estimate_library.py`: which records are paired (the same
+"""`bandopt/studies/library.py`: which records are paired (the same
 lamps, held out and in library), the summary and README text it builds from
 per-lamp records, and the committed section (the run is `make
 estimate-library`)."""
@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from bandopt import inversion as inv_mod
-from experiments import estimate_library as el
+from bandopt.studies import library as el
 
 
 def _rec(p, lamp, cls, scored, ler, band_set="recommended"):
