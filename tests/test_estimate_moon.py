@@ -1,9 +1,9 @@
-"""`experiments/estimate_moon.py`: its pure parts (the Moon-state presets,
+"""`bandopt/studies/moon.py`: its pure parts (the Moon-state presets,
 per-class G errors, the README table)."""
 
 import pytest
 
-from experiments import estimate_moon as em
+from bandopt.studies import moon as em
 
 
 def test_moon_presets_are_the_search_preset_with_other_moon_states():

@@ -12,7 +12,10 @@ here, run by `make study NAME=...` (`make study` lists them).
 
 - `_units`: band sets by name, the records file, the command line;
 - `_text`: README cells, per-class means, `variant_text`;
-- `_study`: `Study`, `run`, the default figure, the manifest.
+- `_study`: `Study`, `run`, the default figure, the manifest;
+- `library`, `moon`: two studies with machinery of their own (what a lamp
+  the library lacks costs; the Moon's share of the error), run by
+  `make estimate-library` and `make estimate-moon`.
 """
 
 from ..names import CanonicalMapping
