@@ -47,6 +47,7 @@ from ._text import (
     held_out_overall as held_out_overall,
     reference_lines as reference_lines,
     row_line as row_line,
+    rows_table as rows_table,
     variant_text as variant_text,
     where_lines as where_lines,
 )

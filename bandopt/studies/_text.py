@@ -98,22 +98,23 @@ def held_out_by_class(recs) -> dict:
     return out
 
 
+HELD_OUT_OVERALL = tuple(
+    c
+    for c in SUMMARY_COLUMNS
+    if c.endswith(("_covered", "_width", "_width_mired"))
+    or c in ("level1_correct", "unexplained")
+)
+"""The columns `held_out_overall` averages over held-out classes: coverage,
+widths, level-1 right and `unexplained` of `inversion.SUMMARY_COLUMNS` (the
+errors and level 2 mean nothing for a class the prior lacks)."""
+
+
 def held_out_overall(recs) -> dict:
     """Class-balanced over held-out classes (each lamp's value averaged within
     its class first)."""
     bc = held_out_by_class(recs)
     res = {}
-    for k in (
-        "LER_covered",
-        "G_covered",
-        "CCT_covered",
-        "LER_width",
-        "G_width",
-        "CCT_width",
-        "CCT_width_mired",
-        "level1_correct",
-        "unexplained",
-    ):
+    for k in HELD_OUT_OVERALL:
         v = [row[k] for row in bc.values() if row.get(k) is not None]
         res[k] = float(np.mean(v)) if v else None
     res["level1_correct_where_family_in_prior"] = float(
@@ -139,6 +140,18 @@ def row_line(r: dict, surface: bool = True) -> str:
         f"{fmt_cell(r, 'LER', 1)} | {fmt_cell(r, 'G', 3)} | {fmt_cell(r, 'CCT', 0)} | "
         f"{cov} | {'n/a' if l1 is None else f'{l1:.2f}'} |"
     )
+
+
+def rows_table(rows, surface: bool = True, label=None) -> list[str]:
+    """README table lines of summary `rows` (`row_line`), header first;
+    `label(band_set)` renames the band sets (default as they are)."""
+    head = ["| band set | surface | estimator" if surface else "| band set | estimator"]
+    head[0] += " | LER [lm/W] | G | CCT [K] | coverage LER/G/CCT | level-1 right |"
+    head.append("|---" * (8 if surface else 7) + "|")
+    name = label or (lambda b: b)
+    return head + [
+        row_line({**r, "band_set": name(r["band_set"])}, surface=surface) for r in rows
+    ]
 
 
 def by_intervals(recs) -> dict:
@@ -238,11 +251,8 @@ def variant_text(
         "over held-out measured lamps, mean ± SD over partitions. "
         f"{what} Generated from `summary.json`.",
         "",
-        "| band set | estimator | LER [lm/W] | G | CCT [K] | coverage LER/G/CCT "
-        "| level-1 right |",
-        "|---|---|---|---|---|---|---|",
+        *rows_table(summary["rows"], surface=False),
     ]
-    lines += [row_line(r, surface=False) for r in summary["rows"]]
     lines += [
         "",
         f"Paired by partition, `{variant}` minus `{base}` (negative = better or "

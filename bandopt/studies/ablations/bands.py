@@ -36,7 +36,7 @@ from ...folds import class_balanced_weights
 from ...inversion import library_lamps
 from ...search import get_context
 from .._study import Study
-from .._text import class_means, diff_cells, fmt_cell, row_line
+from .._text import class_means, diff_cells, fmt_cell, rows_table
 from .._units import band_set
 from .defaults import DEFAULT
 
@@ -370,12 +370,8 @@ def readme_text(summary: dict) -> str:
         "score; modelled lamps used: the library's Planck spectra in every prior, "
         "as evaluate's. Generated from `summary.json`.",
         "",
-        "| band set | estimator | LER [lm/W] | G | CCT [K] | coverage LER/G/CCT "
-        "| level-1 right |",
-        "|---|---|---|---|---|---|---|",
+        *rows_table(summary["rows"], surface=False, label=label),
     ]
-    for r in summary["rows"]:
-        lines.append(row_line({**r, "band_set": label(r["band_set"])}, surface=False))
     lines += [
         "",
         "Paired by partition, contiguous minus our pan + 5 bands (negative = "

@@ -26,7 +26,7 @@ lamps only and never score.
 """
 
 from .._study import BAND_SETS, Study
-from .._text import diff_cells, row_line, where_lines
+from .._text import diff_cells, rows_table, where_lines
 
 
 ESTIMATORS = ("inversion-moon", "inversion-moon-mix")
@@ -56,11 +56,8 @@ def readme_text(summary: dict) -> str:
         "Coverage: fraction of true values inside the 90 % intervals. Generated "
         "from `summary.json`.",
         "",
-        "| band set | surface | estimator | LER [lm/W] | G | CCT [K] | coverage "
-        "LER/G/CCT | level-1 right |",
-        "|---|---|---|---|---|---|---|---|",
+        *rows_table(summary["rows"]),
     ]
-    lines += [row_line(r) for r in summary["rows"]]
     lines += [
         "",
         "Paired by partition (positive = the first is worse): mixtures minus "

@@ -29,7 +29,7 @@ blends are built from each fit's training lamps only and never score.
 import dataclasses
 
 from .._study import UNKNOWN_ONLY, Study
-from .._text import diff_cells, row_line, where_lines
+from .._text import diff_cells, rows_table, where_lines
 
 
 ONE, PER = "inversion-moon-mix", "inversion-moon-mix-metric"
@@ -68,11 +68,8 @@ def readme_text(summary: dict) -> str:
         "90 % intervals (calibrated on held-out lamps). Generated from "
         "`summary.json`.",
         "",
-        "| band set | estimator | LER [lm/W] | G | CCT [K] | coverage LER/G/CCT "
-        "| level-1 right |",
-        "|---|---|---|---|---|---|---|",
+        *rows_table(summary["rows"], surface=False),
     ]
-    lines += [row_line(r, surface=False) for r in summary["rows"]]
     lines += [
         "",
         "Paired by partition (positive = the first is worse): per metric minus "
