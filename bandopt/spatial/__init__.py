@@ -7,6 +7,11 @@ analytically to top-of-atmosphere band radiance images on a fine grid
 quantisation (`imaging`), and searched for single lamps with a Difference of
 Gaussians (`detect`). `bandopt.spatial.montecarlo` checks the renderer
 against Mitsuba 3.
+
+The studies: `GsdStudy` and `run_gsd_study` (the GSD needed to detect single
+lamps per arrangement, key "spatial" of results/recommendation.json;
+`_study`, figures in `_study_figures`) and `run_overlap_study` (lamp types
+where two share pixels; `_overlap_study`), run by `make spatial`.
 """
 
 from .._photometric import (
@@ -74,6 +79,11 @@ from ._overlap import (
     lamp_type_f1_when_overlapping as lamp_type_f1_when_overlapping,
     per_type_radiance as per_type_radiance,
 )
+from ._overlap_study import (
+    OVERLAP_ATMOSPHERE as OVERLAP_ATMOSPHERE,
+    overlap_bands as overlap_bands,
+    run_overlap_study as run_overlap_study,
+)
 from ._render import (
     DEFAULT_CULL_FRACTION as DEFAULT_CULL_FRACTION,
     SURFACE_ROLES as SURFACE_ROLES,
@@ -91,6 +101,15 @@ from ._render import (
     scene_grid as scene_grid,
     surface_index as surface_index,
     uplight_images as uplight_images,
+)
+from ._study import (
+    ASSUMPTIONS as ASSUMPTIONS,
+    GsdStudy as GsdStudy,
+    recommend_from_summary as recommend_from_summary,
+    recommend_spatial as recommend_spatial,
+    run_gsd_study as run_gsd_study,
+    study_atmosphere as study_atmosphere,
+    study_scenes as study_scenes,
 )
 from ._sweep import (
     F1_NEEDED as F1_NEEDED,
