@@ -86,18 +86,17 @@ def test_recommendation_file_as_band_source(tmp_path):
 
 
 def test_recommend_records_mode_and_settings(tmp_path):
+    from bandopt.cli import run_radiometry
     from bandopt.radiometry import RadiometryConfig, load_band_set
-    from experiments.radiometry import run
 
     bands, _, _ = load_band_set("aerocube")
     cfg = RadiometryConfig.quick(bit_depth_table=False, lamps=_few_lamps())
-    run(
+    run_radiometry(
         bands,
         "aerocube",
         tmp_path / "out",
         config=cfg,
-        recommend=True,
-        results_dir=tmp_path,
+        recommend=tmp_path / "recommendation.json",
         log=lambda *_: None,
     )
     rec = json.loads((tmp_path / "recommendation.json").read_text())["radiometry"]

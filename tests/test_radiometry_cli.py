@@ -6,15 +6,15 @@ import json
 import numpy as np
 import pytest
 
-from bandopt.cli import main
+from bandopt.cli import main, run_radiometry
 from bandopt.radiometry import (
     LinearQuantiser,
     RadiometryConfig,
     load_band_set,
     measure,
+    study_band_set as load_ours,
 )
 from bandopt.radiometry._tables import recommend_bits
-from experiments.radiometry import load_band_set as load_ours, run
 
 
 def test_help(capsys):
@@ -62,15 +62,14 @@ def test_run_writes_tables_and_figures(tmp_path):
 
     few = tuple(library().select(scored_only=True).ids[::12])  # a handful of lamps
     cfg = RadiometryConfig.quick(bit_depth_table=False, lamps=few)
-    summary = run(
+    summary = run_radiometry(
         bands,
         "aerocube",
         tmp_path / "out",
         config=cfg,
-        recommend=True,
-        results_dir=tmp_path,
+        recommend=tmp_path / "recommendation.json",
         log=lambda *_: None,
-    )
+    )["summary"]
     out = tmp_path / "out"
     for name in (
         "distributions.csv",
@@ -122,8 +121,10 @@ def test_recommend_bits_rule():
     assert out["recommended_linear_bits"] == 12 and out["agrees_with_thesis_ge_12_bits"]
     # companded schemes follow the same rule; the scheme needing fewer bits wins
     comp = [
-        {**row(8, 1.2), "scheme": "sqrt"}, {**row(10, 1.0), "scheme": "sqrt"},
-        {**row(8, 1.0), "scheme": "two-gain"}, {**row(10, 1.3), "scheme": "two-gain"},
+        {**row(8, 1.2), "scheme": "sqrt"},
+        {**row(10, 1.0), "scheme": "sqrt"},
+        {**row(8, 1.0), "scheme": "two-gain"},
+        {**row(10, 1.3), "scheme": "two-gain"},
         {**row(12, 1.0), "scheme": "two-gain"},
     ]
     out = recommend_bits(rows + comp)

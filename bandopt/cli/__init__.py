@@ -79,12 +79,15 @@ def _show_warning(command: str):
     return show
 
 
-def write_radiometry_results(result: dict, out) -> None:
-    """Write a `bandopt.radiometry.compute` result into folder `out` (the
-    files `bandopt radiometry --out` writes; used by experiments/radiometry.py)."""
-    from ._cmd_radiometry import write_results
+def run_radiometry(bands, label: str, out, **kwargs) -> dict:
+    """What `bandopt radiometry --out OUT [--recommend FILE]` does, from Python
+    (`make radiometry` runs it): lock `out`, compute, write, and with
+    `recommend=FILE` put key "radiometry" of that recommendation file.
+    Keyword arguments as `_cmd_radiometry.run_radiometry`; returns the
+    `bandopt.radiometry.compute` result."""
+    from ._cmd_radiometry import run_radiometry as run
 
-    write_results(result, out)
+    return run(bands, label, out, **kwargs)
 
 
 def _version() -> str:

@@ -1,8 +1,10 @@
 """`bandopt radiometry`: detection limit, saturation, SNR/NER and bit depth of a
 band set (thesis section 4.2)."""
 
+from pathlib import Path
+
 from ._options import add_list_option, bounded, gsd_type, seed_type
-from ._output import add_locked_out
+from ._output import OutputLock, add_locked_out
 
 
 FIELD_OPTIONS = {
@@ -146,8 +148,6 @@ def write_results(result: dict, out) -> None:
     """Write a `bandopt.radiometry.compute` result into folder `out`: the
     tables, `histograms/<band set>.png`, `summary.json` and `manifest.json`
     (each file atomically)."""
-    from pathlib import Path
-
     from ..radiometry import plot_histograms
     from ._output import atomic_path, atomic_write_json, prepare_dir, write_manifest
 
@@ -167,13 +167,42 @@ def write_results(result: dict, out) -> None:
     write_manifest(out, seed=result["seed"], config=result["manifest_config"])
 
 
+def run_radiometry(
+    bands,
+    label: str,
+    out,
+    *,
+    config=None,
+    params=None,
+    rule=None,
+    note: str = "",
+    log=print,
+    recommend=None,
+) -> dict:
+    """Lock folder `out`, compute (`bandopt.radiometry.compute`) and write the
+    result into it (`write_results`); with `recommend` (a recommendation JSON
+    file), put the limits and bit depth, with the mode and settings that made
+    them, under its key "radiometry". Returns the `compute` result."""
+    from ..radiometry import compute
+    from ..results import update_recommendation
+
+    with OutputLock(out) as lock:
+        result = compute(
+            bands, label, config=config, params=params, rule=rule, note=note, log=log
+        )
+        write_results(result, lock.directory)
+    if recommend is not None:
+        rec = {**result["recommendation"], "results": str(out)}
+        update_recommendation("radiometry", rec, path=recommend)
+    return result
+
+
 def run(args) -> int:
     import sys
 
-    from ..radiometry import LimitRule, RadiometryConfig, compute, load_band_set
-    from ..results import update_recommendation
+    from ..radiometry import LimitRule, RadiometryConfig, load_band_set
     from ._checks import coverage_check, sensor_for_gsd
-    from ._output import OutputLock, prepare_file, print_json
+    from ._output import prepare_file, print_json
 
     recommend = None
     if args.recommend:
@@ -203,21 +232,18 @@ def run(args) -> int:
         over["bit_depth_table"] = False
     config = RadiometryConfig.quick(**over) if args.quick else RadiometryConfig(**over)
     log = sys.stderr if args.json else sys.stdout
-    with OutputLock(args.out) as lock:
-        out = lock.directory
-        result = compute(
-            bands,
-            label,
-            config=config,
-            params=params,
-            rule=rule,
-            note=note,
-            log=lambda *a: print(*a, file=log, flush=True),
-        )
-        write_results(result, out)
-    if recommend is not None:
-        rec = {**result["recommendation"], "results": str(out)}
-        update_recommendation("radiometry", rec, path=recommend)
+    out = Path(args.out)
+    result = run_radiometry(
+        bands,
+        label,
+        out,
+        config=config,
+        params=params,
+        rule=rule,
+        note=note,
+        log=lambda *a: print(*a, file=log, flush=True),
+        recommend=recommend,
+    )
     summary = result["summary"]
     if args.json:
         print_json(summary)

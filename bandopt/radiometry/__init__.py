@@ -9,8 +9,11 @@ SNR/NER and bit depth per band (thesis sections 2.5.2-2.5.3 and 4.2).
 - `LinearQuantiser`, `TwoGainQuantiser`, `SqrtQuantiser`, `make_quantiser`.
 - `measure`, `score`, `bit_depth_rows`: errors per bit depth (Table 4.7).
 - `RadiometryConfig`, `compute`, `load_band_set`, `plot_histograms`: the
-  analysis (writes nothing; `bandopt radiometry` and experiments/radiometry.py
-  write the results).
+  analysis (writes nothing; `bandopt radiometry` and `make radiometry` write
+  the results).
+- `study_band_set`, `study_out_dir`, `readme_text`, `write_readme`: the study
+  of the results folder (`make radiometry`): "ours" read from its
+  recommendation.json, the output folder, the README section.
 """
 
 from ._background import (
@@ -59,4 +62,10 @@ from ._report import (
     compute as compute,
     load_band_set as load_band_set,
     plot_histograms as plot_histograms,
+)
+from ._study import (
+    readme_text as readme_text,
+    study_band_set as study_band_set,
+    study_out_dir as study_out_dir,
+    write_readme as write_readme,
 )

@@ -3,10 +3,9 @@ one band set (and the reference sensors); the rows of its tables and the
 bit-depth rule are in `_tables`.
 
 `compute` returns the tables, summary and recommendation and writes nothing:
-`bandopt radiometry --out DIR` writes them into DIR, and
-`python -m experiments.radiometry` (`make radiometry`) owns results/radiometry
-and the "radiometry" key of results/recommendation.json. The package never
-reads or writes results/ by itself.
+`bandopt radiometry --out DIR` (`bandopt.cli.run_radiometry`) writes them
+into DIR, and `make radiometry` (with `_study`) owns results/radiometry, its
+README section and the "radiometry" key of results/recommendation.json.
 """
 
 import dataclasses
