@@ -19,6 +19,8 @@
   tasks and the pluggable outer-fold estimator (a `FittedScorer`, whose
   `hyper` a refit can keep); `_analysis`: the stated rules
   (band count, Pareto knee, medoid design);
+- `run_noise_aware`, `noise_aware_tasks` (`_noise_aware`): the optimum bands
+  per signal level, photon noise of the Table 2.3 sensor (`make noise-aware`);
 - `tolerance_analysis`, `perturbed_bands`, `specification_interval`
   (`_tolerance`): specification intervals of a band set, with the estimator
   fitted to the nominal bands and its coefficients refitted on the perturbed
@@ -57,6 +59,10 @@ from ._local import (
     bandset_losses as bandset_losses,
     fit_local as fit_local,
     free_bandset as free_bandset,
+)
+from ._noise_aware import (
+    noise_aware_tasks as noise_aware_tasks,
+    run_noise_aware as run_noise_aware,
 )
 from ._problem import (
     PAN_EDGES_NM as PAN_EDGES_NM,
