@@ -12,7 +12,6 @@ confidence; resumable per (partition, band set)), `summary.json`
 """
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
@@ -22,13 +21,6 @@ OUT = Path("results/robustness")
 
 QUICK_OUT = OUT / "quick"
 """Where `--quick` writes (kept apart from the full study's files)."""
-
-
-def log(msg: str) -> None:
-    """Progress line on stderr, `[robustness HH:MM:SS] msg`."""
-    print(
-        f"[robustness {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True
-    )
 
 
 def main(argv=None) -> int:
@@ -47,6 +39,7 @@ def main(argv=None) -> int:
 
     configure()
     from bandopt import robustness as rb
+    from bandopt.studies import log
 
     if args.quick:
         study = rb.RobustnessStudy(
@@ -64,10 +57,10 @@ def main(argv=None) -> int:
         out / "records.jsonl.gz",
         resume=args.resume,
         partitions=args.only_partitions,
-        log=lambda m: log(f"{m} ({time.time() - t0:.0f} s)"),
+        log=lambda m: log(f"{m} ({time.time() - t0:.0f} s)", "robustness"),
     )
     rb.write_outputs(rb.summarise(records, study), study, out)
-    log(f"done: {out} ({time.time() - t0:.0f} s)")
+    log(f"done: {out} ({time.time() - t0:.0f} s)", "robustness")
     return 0
 
 
