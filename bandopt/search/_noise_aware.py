@@ -76,8 +76,8 @@ def run_noise_aware(
         json.dumps(
             {
                 "rows": rows,
-                "note": "3 free bands + fixed pan, target all, all scored lamps; "
-                "sensor: thesis Table 2.3 (shot noise only)",
+                "note": f"{n_bands} free bands + fixed pan, target all, all scored "
+                "lamps; sensor: thesis Table 2.3 (shot noise only)",
             },
             indent=2,
         )
