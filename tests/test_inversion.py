@@ -252,7 +252,7 @@ def test_cross_validate_scores_training_lamps_when_asked():
     assert sorted(r.lamp for r in own) == sorted(lamps.ids[i] for i in s.train)
     assert sorted(r.lamp for r in held) == sorted(lamps.ids[i] for i in s.test)
     assert all(r.scored == "train" for r in own)
-    assert all("scored" not in r for r in held)
+    assert all(r.scored is None for r in held)
     assert all(r.out_of_range == 0 for r in own)
     err = [np.mean([r.LER for r in x if r.LER is not None]) for x in (own, held)]
     # how much better depends on the band error the inner folds choose: at
@@ -300,7 +300,7 @@ def test_cross_validate_trains_on_a_smaller_library_when_asked():
     assert [r.lamp for r in half] == [r.lamp for r in full]
     n = len(ctx.splits[0].train)
     assert all(r.train_fraction == 0.5 and r.train_lamps < n for r in half)
-    assert all("train_fraction" not in r for r in full)
+    assert all(r.train_fraction is None for r in full)
     with pytest.raises(ValueError, match="train_fraction"):
         inv_mod.cross_validate(ctx, FIVE, train_fraction=0.0, **kw)
 

@@ -135,4 +135,4 @@ def test_cross_validate_runs_the_loco_estimator(case, monkeypatch):
     assert set(a) == set(b)
     for lamp in a:  # same point estimates: same errors
         for m in ("LER", "G", "CCT"):
-            assert a[lamp].get(m) == b[lamp].get(m)
+            assert getattr(a[lamp], m) == getattr(b[lamp], m)

@@ -176,7 +176,7 @@ def test_cross_validate_scores_both_intervals_from_one_fit(case, monkeypatch):
     assert by[base] == alone
     for a, b in zip(by[base], by[narrow], strict=True):
         assert (a.lamp, a.LER, a.G) == (b.lamp, b.LER, b.G)
-        assert {"LER_width", "G_width", "LER_covered"} <= set(b)
+        assert {"LER_width", "G_width", "LER_covered"} <= set(b.to_dict())
 
 
 def _reference_metrics(post, prior, m):
