@@ -80,6 +80,43 @@ def nested_lamp_splits(
     return out
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class Folds(Sequence):
+    """The nested lamp splits of one scenario table: a sequence of
+    `NestedSplit` (outer fold k at index k) with the rule that made them.
+
+    - `splits`: the outer folds, each with its inner (train, validation) splits.
+    - `seed`, `n_outer`, `n_inner`: `nested_lamp_splits`'s arguments.
+    """
+
+    splits: tuple[NestedSplit, ...]
+    seed: int
+    n_outer: int
+    n_inner: int
+
+    def __getitem__(self, k):
+        return self.splits[k]
+
+    def __len__(self) -> int:
+        return len(self.splits)
+
+    def outer(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(train, test) lamp indices of every outer fold."""
+        return [(s.train, s.test) for s in self.splits]
+
+
+def lamp_folds(
+    classes: Labels,
+    *,
+    n_outer: int = N_OUTER_FOLDS,
+    n_inner: int = N_INNER_FOLDS,
+    seed: int = 0,
+) -> Folds:
+    """`nested_lamp_splits` as a typed `Folds` record."""
+    splits = nested_lamp_splits(classes, n_outer=n_outer, n_inner=n_inner, seed=seed)
+    return Folds(tuple(splits), seed, n_outer, n_inner)
+
+
 def class_balanced_weights(classes: Labels) -> np.ndarray:
     """Per-item weights so every class weighs the same and weights sum to 1."""
     classes = np.asarray(classes, dtype=object)

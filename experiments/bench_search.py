@@ -275,7 +275,7 @@ def main(argv=None) -> int:
 
     ctx = get_context(args.preset, None, 0, "none")
     lamps = np.arange(ctx.table.n_lamps)
-    splits = [(s.train, s.test) for s in ctx.splits]
+    splits = ctx.folds.outer()
     out = {
         "config": vars(args),
         "scenes": int(ctx.toa.shape[0] * ctx.toa.shape[1]),

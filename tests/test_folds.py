@@ -70,3 +70,25 @@ def test_bootstrap_interval_contains_estimate_and_shrinks():
     assert hi2 - lo2 < hi - lo
     with pytest.raises(ValueError, match="differ"):
         lamp_bootstrap_ci(err[:3], classes)
+
+
+def test_lamp_folds_is_the_nested_splits_as_a_record():
+    """`lamp_folds` holds exactly `nested_lamp_splits`'s folds, indexable and
+    iterable like them, with the rule that made them and the outer pairs."""
+    from bandopt.folds import Folds, lamp_folds
+
+    classes = ["a"] * 7 + ["b"] * 5 + ["c"] * 3
+    folds = lamp_folds(classes, n_outer=3, n_inner=2, seed=4)
+    plain = nested_lamp_splits(classes, n_outer=3, n_inner=2, seed=4)
+    assert isinstance(folds, Folds) and len(folds) == len(plain) == 3
+    assert (folds.seed, folds.n_outer, folds.n_inner) == (4, 3, 2)
+    for k, (mine, theirs) in enumerate(zip(folds, plain, strict=True)):
+        assert folds[k] is mine and mine.outer == theirs.outer == k
+        np.testing.assert_array_equal(mine.test, theirs.test)
+        train, test = folds.outer()[k]
+        np.testing.assert_array_equal(train, theirs.train)
+        np.testing.assert_array_equal(test, theirs.test)
+    other = lamp_folds(classes, n_outer=3, n_inner=2, seed=5)
+    assert not all(
+        np.array_equal(a.test, b.test) for a, b in zip(folds, other, strict=True)
+    )

@@ -362,3 +362,68 @@ def test_noisy_band_radiance_sees_the_same_draws_in_float32():
     clean = np.asarray(band_radiance(jnp.asarray(spectra), bands, wavelength_nm=wl))
     assert np.max(np.abs(a - clean) / clean) > 1e-3  # the noise is visible
     np.testing.assert_allclose(b, a, rtol=1e-4)  # float32 rounding only
+
+
+def test_measure_attaches_the_rows_to_the_band_radiance(scen, bands):
+    """`measure` gives `band_measurement`'s numbers for a table, with each
+    row's lamp, type and scene attached; it refuses anything but a table."""
+    from bandopt.forward import band_measurement, measure, scenario_table
+
+    t = scenario_table(scen)
+    m = measure(t, bands, noise=True, key=5)
+    ref = band_measurement(t, bands, noise=True, key=5)
+    np.testing.assert_array_equal(np.asarray(m.radiance), np.asarray(ref.radiance))
+    np.testing.assert_array_equal(np.asarray(m.noise_z), np.asarray(ref.noise_z))
+    assert m.rows is t and m.radiance.shape == (t.n_rows, 3)
+    np.testing.assert_array_equal(m.lamp, t.lamp)
+    assert list(m.labels("level2")) == [t.level2[i] for i in t.lamp]
+    # the rows are the scenario set's scenes in C order: row 0 of lamp 1
+    lamp1 = np.flatnonzero(t.lamp == 1)[0]
+    sim = simulate(scen, bands, noise=False, crop=False).radiance
+    np.testing.assert_allclose(
+        np.asarray(measure(t, bands).radiance)[lamp1], sim[1, 0, 0, 0, 0], rtol=1e-10
+    )
+    np.testing.assert_array_equal(
+        t.band_radiance(bands, noise=True, seed=5), m.radiance
+    )
+    with pytest.raises(TypeError, match="ScenarioTable"):
+        measure(scen, bands)
+    with pytest.raises(ValueError, match="no rows"):
+        band_measurement(t, bands).labels("level1")
+
+
+def test_scenario_table_of_repeated_scenes(scen):
+    """Scenes repeated `k` times (copy axis after surface) keep every row's
+    labels and say what was done to each copy's lamp (`kind`)."""
+    from bandopt.forward import dense_spectra, scenario_table
+
+    dense = np.asarray(dense_spectra(scen))  # (l, s, a, m, c, w)
+    rep = np.stack([dense, 2 * dense], axis=2)  # (l, s, 2, a, m, c, w)
+    kind = np.zeros(rep.shape[:-1], int)
+    kind[:, :, 1] = 1
+    t = scenario_table(scen, spectra=rep, kind=kind, kinds=("clean", "doubled"))
+    plain = scenario_table(scen)
+    assert t.n_rows == 2 * plain.n_rows and t.kinds == ("clean", "doubled")
+    clean = t.kind == 0
+    np.testing.assert_array_equal(t.toa[clean], plain.toa)
+    np.testing.assert_array_equal(t.toa[~clean], 2 * plain.toa)
+    for field in ("lamp", "surface", "atmosphere", "moon", "lighting_class"):
+        np.testing.assert_array_equal(getattr(t, field)[clean], getattr(plain, field))
+        np.testing.assert_array_equal(getattr(t, field)[~clean], getattr(plain, field))
+    assert t.scenes_per_lamp == 2 * plain.scenes_per_lamp
+    np.testing.assert_array_equal(t.per_lamp(t.toa)[1], t.toa[t.lamp == 1])
+    with pytest.raises(ValueError, match="need a kind"):
+        scenario_table(scen, spectra=rep)
+
+
+def test_scenario_set_refuses_a_table_without_its_set(scen):
+    import dataclasses
+
+    from bandopt.forward import scenario_table
+
+    t = scenario_table(scen)
+    assert t.scenario_set() is scen
+    with pytest.raises(ValueError, match="no scenario set behind it"):
+        dataclasses.replace(t, scenarios=None).scenario_set()
+    with pytest.raises(ValueError, match="lamps differ"):
+        dataclasses.replace(t, lamp_ids=("x", *t.lamp_ids[1:])).scenario_set()

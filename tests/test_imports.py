@@ -227,6 +227,7 @@ INVERSION_FLOORS = (
     "_fit",
     "_estimators",
     "_context",
+    "_records",
     "_crossval",
     "_leave_class_out",
     "_summary",

@@ -196,9 +196,19 @@ def test_fit_calibrates_and_flags_non_lamp_pixels():
 
     ctx = get_context("tiny", None, 0, "none")
     recs = inv_mod.cross_validate(ctx, FIVE, estimators=("inversion",), folds=[0])
-    assert recs and all(r["out_of_range"] == 0 for r in recs)
-    cover = [r["LER_covered"] for r in recs]
+    assert recs and all(r.out_of_range == 0 for r in recs)
+    cover = [r.LER_covered for r in recs]
     assert np.mean(cover) >= 0.6
+    # the typed record and its JSON form carry the same fields both ways
+    for r in recs:
+        d = r.to_dict()
+        assert inv_mod.LampScore.from_dict(d) == r and r.error("LER") == d["LER"]
+        assert set(METRICS) <= set(d) and None not in (r.rows, r.fold)
+        assert r.as_record(partition=2)["partition"] == 2
+    with pytest.raises(ValueError, match="unknown fields"):
+        inv_mod.LampScore.from_dict({**recs[0].to_dict(), "partition": 0})
+    with pytest.raises(ValueError, match="Unknown metric"):
+        recs[0].error("lux")
     lamps, always, cond, _ = inv_mod.context_setup(ctx)
     s = ctx.splits[0]
     w = _weights(FIVE)
@@ -239,12 +249,12 @@ def test_cross_validate_scores_training_lamps_when_asked():
     kw = dict(estimators=("inversion",), folds=[0])
     held = inv_mod.cross_validate(ctx, FIVE, **kw)
     own = inv_mod.cross_validate(ctx, FIVE, scored="train", **kw)
-    assert sorted(r["lamp"] for r in own) == sorted(lamps.ids[i] for i in s.train)
-    assert sorted(r["lamp"] for r in held) == sorted(lamps.ids[i] for i in s.test)
-    assert all(r["scored"] == "train" for r in own)
-    assert all("scored" not in r for r in held)
-    assert all(r["out_of_range"] == 0 for r in own)
-    err = [np.mean([r["LER"] for r in x if r["LER"] is not None]) for x in (own, held)]
+    assert sorted(r.lamp for r in own) == sorted(lamps.ids[i] for i in s.train)
+    assert sorted(r.lamp for r in held) == sorted(lamps.ids[i] for i in s.test)
+    assert all(r.scored == "train" for r in own)
+    assert all(r.scored is None for r in held)
+    assert all(r.out_of_range == 0 for r in own)
+    err = [np.mean([r.LER for r in x if r.LER is not None]) for x in (own, held)]
     # how much better depends on the band error the inner folds choose: at
     # σ_rel 0.003 a prior lamp is pinned (~1/20 of the held-out error), at
     # 0.1 (what the tiny context chooses now) it is ~1/4
@@ -287,10 +297,10 @@ def test_cross_validate_trains_on_a_smaller_library_when_asked():
     kw = dict(estimators=("inversion",), folds=[0])
     full = inv_mod.cross_validate(ctx, FIVE, **kw)
     half = inv_mod.cross_validate(ctx, FIVE, train_fraction=0.5, **kw)
-    assert [r["lamp"] for r in half] == [r["lamp"] for r in full]
+    assert [r.lamp for r in half] == [r.lamp for r in full]
     n = len(ctx.splits[0].train)
-    assert all(r["train_fraction"] == 0.5 and r["train_lamps"] < n for r in half)
-    assert all("train_fraction" not in r for r in full)
+    assert all(r.train_fraction == 0.5 and r.train_lamps < n for r in half)
+    assert all(r.train_fraction is None for r in full)
     with pytest.raises(ValueError, match="train_fraction"):
         inv_mod.cross_validate(ctx, FIVE, train_fraction=0.0, **kw)
 

@@ -130,9 +130,9 @@ def test_cross_validate_runs_the_loco_estimator(case, monkeypatch):
     )
     by = {}
     for r in recs:
-        by.setdefault(r["estimator"], {})[r["lamp"]] = r
+        by.setdefault(r.estimator, {})[r.lamp] = r
     a, b = by[inv_mod.MOON_ESTIMATOR], by[inv_mod.MOON_UNSEEN_ESTIMATOR]
     assert set(a) == set(b)
     for lamp in a:  # same point estimates: same errors
         for m in ("LER", "G", "CCT"):
-            assert a[lamp].get(m) == b[lamp].get(m)
+            assert getattr(a[lamp], m) == getattr(b[lamp], m)

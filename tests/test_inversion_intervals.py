@@ -140,13 +140,13 @@ def test_bad_offsets_are_refused(fits):
 def test_interval_fields_by_hand():
     iv = np.array([[[100.0, 200.0], [0.1, 0.3], [2500.0, 5000.0]],
                    [[150.0, 170.0], [0.2, 0.25], [3000.0, 4000.0]]])  # fmt: skip
-    f = inv_mod._interval_fields(iv, np.array([160.0, 0.28, 3500.0]), [True] * 3)
+    f = inv_mod.interval_fields(iv, np.array([160.0, 0.28, 3500.0]), [True] * 3)
     assert f["LER_covered"] == 1.0 and f["G_covered"] == 0.5
     assert f["LER_width"] == pytest.approx(60.0)
     assert f["CCT_width"] == pytest.approx((2500.0 + 1000.0) / 2)
     mired = ((1e6 / 2500 - 1e6 / 5000) + (1e6 / 3000 - 1e6 / 4000)) / 2
     assert f["CCT_width_mired"] == pytest.approx(mired)
-    assert "G_width" not in inv_mod._interval_fields(iv, np.zeros(3), [1, 0, 1])
+    assert "G_width" not in inv_mod.interval_fields(iv, np.zeros(3), [1, 0, 1])
 
 
 def test_cross_validate_scores_both_intervals_from_one_fit(case, monkeypatch):
@@ -172,11 +172,11 @@ def test_cross_validate_scores_both_intervals_from_one_fit(case, monkeypatch):
     assert fitted[1:] == [(0.0,)]
     by = {}
     for r in both:
-        by.setdefault(r["estimator"], []).append(r)
+        by.setdefault(r.estimator, []).append(r)
     assert by[base] == alone
     for a, b in zip(by[base], by[narrow], strict=True):
-        assert (a["lamp"], a["LER"], a["G"]) == (b["lamp"], b["LER"], b["G"])
-        assert {"LER_width", "G_width", "LER_covered"} <= set(b)
+        assert (a.lamp, a.LER, a.G) == (b.lamp, b.LER, b.G)
+        assert {"LER_width", "G_width", "LER_covered"} <= set(b.to_dict())
 
 
 def _reference_metrics(post, prior, m):

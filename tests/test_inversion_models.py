@@ -268,10 +268,16 @@ def _fake_context(case):
     from bandopt.estimate import lamp_truth
 
     truth, valid = lamp_truth(lamps.spectra, GRID)
-    split = types.SimpleNamespace(train=train, test=test, inner=inner)
+    from bandopt.folds import Folds, NestedSplit
+
+    folds = Folds((NestedSplit(0, train, test, tuple(inner)),), 0, 1, len(inner))
     table = types.SimpleNamespace(lamp_of=row_lamp, truth=truth, valid=valid)
     return types.SimpleNamespace(
-        wavelength_nm=GRID, radiance=lambda bands: rad, table=table, splits=[split]
+        wavelength_nm=GRID,
+        radiance=lambda bands: rad,
+        table=table,
+        splits=folds,
+        folds=folds,
     )
 
 
@@ -291,22 +297,21 @@ def test_cross_validate_scores_measured_lamps_only_and_says_so(case, monkeypatch
     test_ids = {lamps.ids[i] for i in ctx.splits[0].test}
     by = {}
     for r in recs:
-        by.setdefault(r["estimator"], []).append(r)
+        by.setdefault(r.estimator, []).append(r)
     assert set(by) == {"inversion", "inversion+models"}
     for est, rs in by.items():
-        assert {r["lamp"] for r in rs} == test_ids  # measured test lamps only
+        assert {r.lamp for r in rs} == test_ids  # measured test lamps only
         n = N_MODEL if est == "inversion+models" else 0
-        assert all(r["modelled_per_class"] == n for r in rs)
+        assert all(r.modelled_per_class == n for r in rs)
     assert all(
-        r["modelled_classes_added"] == {"mercury": N_MODEL}
+        r.modelled_classes_added == {"mercury": N_MODEL}
         for r in by["inversion+models"]
     )
-    # the default records are as before: no modelled-lamp keys
+    # the default records carry no modelled-lamp fields
     plain = inv_mod.cross_validate(ctx, FIVE, estimators=("inversion",), **kw)
-    assert not any("modelled_per_class" in r for r in plain)
+    assert all(r.modelled_per_class is None for r in plain)
     for a, b in zip(plain, by["inversion"], strict=True):
-        b = {k: v for k, v in b.items() if k != "modelled_per_class"}
-        assert a == b
+        assert a == dataclasses.replace(b, modelled_per_class=None)
     with pytest.raises(ValueError, match="modelled_per_class >= 1"):
         inv_mod.cross_validate(ctx, FIVE, estimators=("inversion+models",), **kw)
 
@@ -656,21 +661,21 @@ def test_ridge_and_kernel_train_on_modelled_lamps_scored_on_measured(tiny_ctx):
     )
     by = {}
     for r in recs:
-        by.setdefault(r["estimator"], []).append(r)
+        by.setdefault(r.estimator, []).append(r)
     test_ids = {lamps.ids[i] for i in s.test}
     for est, rs in by.items():
-        assert {r["lamp"] for r in rs} == test_ids
-        assert all(r["out_of_range"] == 0 for r in rs)
-        assert all(r["modelled_per_class"] == (0 if est == "ridge" else N_MODEL)
+        assert {r.lamp for r in rs} == test_ids
+        assert all(r.out_of_range == 0 for r in rs)
+        assert all(r.modelled_per_class == (0 if est == "ridge" else N_MODEL)
                    for r in rs)  # fmt: skip
     assert all(
-        r["modelled_classes_added"] == {"led_amber": N_MODEL}
+        r.modelled_classes_added == {"led_amber": N_MODEL}
         for r in by["ridge+models"] + by["kernel+models"]
     )
     plain = inv_mod.cross_validate(ctx, FIVE, estimators=("ridge",), **kw)
     for a, b in zip(plain, by["ridge"], strict=True):
-        assert a == {k: v for k, v in b.items() if k != "modelled_per_class"}
+        assert a == dataclasses.replace(b, modelled_per_class=None)
     # the modelled lamps change the amberury lamps' estimates, nothing else breaks
-    amber = [r for r in by["ridge+models"] if r["level2"] == "led_amber"]
-    amber0 = [r for r in by["ridge"] if r["level2"] == "led_amber"]
-    assert amber and [r["LER"] for r in amber] != [r["LER"] for r in amber0]
+    amber = [r for r in by["ridge+models"] if r.level2 == "led_amber"]
+    amber0 = [r for r in by["ridge"] if r.level2 == "led_amber"]
+    assert amber and [r.LER for r in amber] != [r.LER for r in amber0]

@@ -142,16 +142,16 @@ def test_cross_validate_tells_the_moon_only_to_inversion_moon(moon_ctx, monkeypa
     np.testing.assert_array_equal(seen[1], inv_mod.context_moon(moon_ctx))
     by = {}
     for r in recs:
-        by.setdefault(r["estimator"], []).append(r)
+        by.setdefault(r.estimator, []).append(r)
     assert set(by) == {"inversion", inv_mod.MOON_ESTIMATOR}
-    assert all(r["out_of_range"] == 0 for r in recs)
-    assert [r["lamp"] for r in by["inversion"]] == [
-        r["lamp"] for r in by[inv_mod.MOON_ESTIMATOR]
+    assert all(r.out_of_range == 0 for r in recs)
+    assert [r.lamp for r in by["inversion"]] == [
+        r.lamp for r in by[inv_mod.MOON_ESTIMATOR]
     ]
     assert any(
-        a["G"] != b["G"]
+        a.G != b.G
         for a, b in zip(by["inversion"], by[inv_mod.MOON_ESTIMATOR], strict=True)
-        if a["G"] is not None
+        if a.G is not None
     )
 
     class StopError(Exception):

@@ -89,8 +89,8 @@ def test_cross_validate_planck_rows_say_so_and_score_measured_lamps(monkeypatch)
     ctx = _fake_context(case)
     both = (inv_mod.PLANCK_ESTIMATOR, inv_mod.DEFAULT_ESTIMATOR)
     recs = inv_mod.cross_validate(ctx, FIVE, estimators=both, folds=[0])
-    assert recs and {r["estimator"] for r in recs} == set(both)
-    assert {r["lamp"] for r in recs} <= set(lamps.ids)
+    assert recs and {r.estimator for r in recs} == set(both)
+    assert {r.lamp for r in recs} <= set(lamps.ids)
     for r in recs:
-        assert r["modelled_in_prior"] == list(inv_mod.planck_lamps(GRID).ids)
-        assert r["out_of_range"] == 0
+        assert r.modelled_in_prior == list(inv_mod.planck_lamps(GRID).ids)
+        assert r.out_of_range == 0

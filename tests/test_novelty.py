@@ -38,7 +38,7 @@ def test_a_narrow_line_a_dark_band_and_nan_are_flagged(setup):
     ctx, bands, rad = setup
     chk = novelty.fit_ratio_novelty(
         rad, ctx.table, np.arange(ctx.table.n_lamps),
-        [(s.train, s.test) for s in ctx.splits],
+        ctx.folds.outer(),
     )  # fmt: skip
     grid = np.asarray(ctx.wavelength_nm, float)
     line = np.exp(-0.5 * ((grid - 450.0) / 2.0) ** 2)

@@ -448,3 +448,24 @@ def test_task_result_json_is_the_task_file_form():
         TaskResult.from_dict({**search.to_dict(), "bogus": 1})
     with pytest.raises(ValueError, match=r"missing keys \['context'\]"):
         TaskResult.from_dict({"task": {}, "bands": {}, "wall_s": 1.0})
+
+
+def test_context_is_a_scenario_table_with_folds():
+    """A search context's views are its scenario table's rows: spectra per
+    lamp, lamp table, types, folds over the lamps stratified by type."""
+    from bandopt.folds import Folds
+    from bandopt.forward import ScenarioTable
+    from bandopt.search import get_context
+
+    ctx = get_context("tiny")
+    t = ctx.scenes
+    assert isinstance(t, ScenarioTable) and isinstance(ctx.folds, Folds)
+    assert ctx.toa.shape == (t.n_lamps, t.scenes_per_lamp, t.wavelength_nm.size)
+    np.testing.assert_array_equal(ctx.toa.reshape(-1, ctx.toa.shape[-1]), t.toa)
+    np.testing.assert_array_equal(ctx.table.lamp_of, t.lamp)
+    np.testing.assert_array_equal(ctx.table.classes, t.level2)
+    assert ctx.splits is ctx.folds and ctx.lamp_ids == t.lamp_ids
+    assert not ctx.scene_kind.any()  # no perturbations: every scene clean
+    for s in ctx.folds:
+        for c in set(t.level2[s.test]):
+            assert c in set(t.level2[s.train])  # every tested type is trained

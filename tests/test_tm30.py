@@ -161,11 +161,11 @@ def test_cross_validate_tm30_rows_say_so_and_score_library_lamps(monkeypatch, tm
     recs = inv_mod.cross_validate(
         _fake_context(case), FIVE, estimators=(inv_mod.TM30_ESTIMATOR,), folds=[0]
     )
-    assert recs and {r["lamp"] for r in recs} <= set(lamps.ids)
+    assert recs and {r.lamp for r in recs} <= set(lamps.ids)
     for r in recs:
-        assert r["tm30_in_prior"] == len(tm30.ids)
-        assert r["modelled_in_prior"] == list(inv_mod.planck_lamps(GRID).ids)
-        assert r["out_of_range"] == 0
+        assert r.tm30_in_prior == len(tm30.ids)
+        assert r.modelled_in_prior == list(inv_mod.planck_lamps(GRID).ids)
+        assert r.out_of_range == 0
     assert all(set(tm30.ids) <= set(ids) for ids in built)
 
 

@@ -53,7 +53,6 @@ from ..datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT
 from ..forward import ScenarioTable, resolve_level
 from ..knn import features
 from ..names import validate_method
-from ..scene import Neighbourhood, build_scenarios
 from ._metrics import REJECT_THRESHOLD, confidence_curve, scores, withhold
 from ._scores import (
     REJECT_GRID,
@@ -90,8 +89,7 @@ def surface_types(table: ScenarioTable) -> list[str]:
 
 def inversion_conditions(table: ScenarioTable) -> inv_mod.Conditions:
     """The inversion's scene conditions (atmospheres, neighbourhood, brightest
-    Moon state) of the scenario set behind `table`, rebuilt from its
-    `config` with one lamp and one surface."""
+    Moon state) of the scenario set behind `table`."""
     return inv_mod.Conditions.from_scenarios(_conditions_scenarios(table))
 
 
@@ -116,26 +114,8 @@ def table_moon(table: ScenarioTable) -> np.ndarray:
 
 
 def _conditions_scenarios(table: ScenarioTable):
-    """The scenario set behind `table` with one lamp, one surface and one
-    lighting class: every atmosphere and Moon state, in `config` order."""
-    cfg = table.config
-    hood = cfg.get("neighbourhood")
-    extra = {} if hood is None else {"neighbourhood": Neighbourhood(**hood)}
-    scen = build_scenarios(
-        lamps=[table.lamp_ids[0]],
-        surfaces=[
-            cfg["surfaces"][0]
-            if isinstance(cfg["surfaces"][0], str)
-            else tuple(cfg["surfaces"][0])
-        ],
-        atmospheres=[a if isinstance(a, str) else tuple(a) for a in cfg["atmospheres"]],
-        moons=tuple(cfg["moons"]),
-        moon_zenith_deg=cfg["moon_zenith_deg"],
-        classes=tuple(cfg["classes"][:1]),
-        wavelength_nm=table.wavelength_nm,
-        **extra,
-    )
-    return scen
+    """The scenario set behind `table` (its atmospheres and Moon states)."""
+    return table.scenario_set()
 
 
 @functools.lru_cache(maxsize=2)

@@ -129,17 +129,7 @@ def modelled_rows(
     `train_lamps` or a modelled lamp would carry a class or id the table
     cannot score (leaks, never expected).
     """
-    scen = table.scenarios
-    if scen is None:
-        raise ValueError(
-            "table: no scenario set behind it (not built by "
-            "bandopt.forward.scenario_table); modelled lamps need its scenes."
-        )
-    if tuple(scen.lamp_ids) != tuple(table.lamp_ids):
-        raise ValueError(
-            "table: its lamps differ from those of its scenario set "
-            "(table.scenarios); rebuild it with scenario_table."
-        )
+    scen = table.scenario_set()
     train_ids = [table.lamp_ids[i] for i in np.asarray(train_lamps, int)]
     lamps, info, mtable = _modelled_table(
         scen, tuple(train_ids), int(n_per_class), tuple(classes), int(seed)

@@ -131,7 +131,7 @@ def _fit_regression(name, fit, ctx, bands) -> FittedRegression:
     """A regression baseline trained on every scored lamp of `ctx` (inner
     folds: its outer splits), its intervals and its novelty flag."""
     all_lamps = np.arange(ctx.table.n_lamps)
-    splits = [(s.train, s.test) for s in ctx.splits]
+    splits = ctx.folds.outer()
     rad = ctx.radiance(bands)
     est = fit(rad, ctx.table, all_lamps, splits)
     q = conformal_halfwidth(fit, rad, ctx)

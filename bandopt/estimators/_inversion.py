@@ -76,7 +76,7 @@ def fit_on_context(
     if train_lamps is None:
         train_lamps = np.arange(ctx.table.n_lamps)
         if inner is None:
-            inner = [(s.train, s.test) for s in ctx.splits]
+            inner = ctx.folds.outer()
     elif inner is None:
         raise ValueError("inner: give the lamp-grouped splits of train_lamps.")
     basis = inv_mod.surface_basis(grid)

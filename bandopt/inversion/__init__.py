@@ -131,11 +131,9 @@ from ._context import (
 )
 from ._crossval import (
     _check_never_scored as _check_never_scored,
-    _interval_fields as _interval_fields,
     _out_of_range as _out_of_range,
     _smaller_library as _smaller_library,
     cross_validate as cross_validate,
-    record_errors as record_errors,
 )
 from ._estimators import (
     DEFAULT_ESTIMATOR as DEFAULT_ESTIMATOR,
@@ -198,6 +196,11 @@ from ._model import (
 from ._prior import (
     LampPrior as LampPrior,
     lamp_prior as lamp_prior,
+)
+from ._records import (
+    LampScore as LampScore,
+    interval_fields as interval_fields,
+    record_errors as record_errors,
 )
 from ._scoring import (
     CHUNK as CHUNK,

@@ -10,7 +10,6 @@ import numpy as np
 
 from ..estimate import LampTable, lamp_truth
 from ..forward import band_weights_on as forward_band_weights, dense_spectra
-from ..scene import build_scenarios
 from ._conditions import Conditions
 from ._fit import fit_inversion
 from ._lamps import MODELLED_CLASSES, library_lamps, modelled_lamps
@@ -230,19 +229,8 @@ def _context_setup(ctx):
     if lamps.ids != tuple(ctx.lamp_ids):
         raise RuntimeError("context lamps and library scored lamps differ")
     always = library_lamps(grid, scored=False)
-    sc = ctx.config["scenarios"]
-    atms = [a if isinstance(a, str) else tuple(a) for a in sc["atmospheres"]]
-    scen = build_scenarios(
-        lamps=[lamps.ids[0]],
-        surfaces=sc["surfaces"],
-        atmospheres=atms,
-        moons=tuple(sc["moons"]),
-        classes=tuple(sc["classes"]),
-        wavelength_nm=grid,
-    )
-    per_surface = ctx.toa.shape[1] // len(sc["surfaces"])
-    q = np.arange(ctx.toa.shape[1]) // per_surface
-    row_types = [sc["surfaces"][i] for i in np.tile(q, ctx.table.n_lamps)]
+    scen = ctx.scenes.scenario_set().subset_lamps([0])
+    row_types = [str(x) for x in ctx.scenes.surface]
     return lamps, always, Conditions.from_scenarios(scen), row_types, scen
 
 

@@ -6,7 +6,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..estimate import CCT_RANGE_K, METRICS, MIRED, fit_estimator, fit_kernel_estimator
+from ..estimate import METRICS, fit_estimator, fit_kernel_estimator
 from ..names import validate_method
 from ._context import (
     _basis,
@@ -39,6 +39,7 @@ from ._lamps import (
 )
 from ._metrics import PHYSICAL_RANGE
 from ._model import InversionResult
+from ._records import LampScore, interval_fields, record_errors
 from ._surfaces import _surface_knowledge
 
 
@@ -80,7 +81,7 @@ def cross_validate(
     modelled_classes: Sequence[str] = MODELLED_CLASSES,
     scored: str = "test",
     train_fraction: float = 1.0,
-) -> list[dict]:
+) -> list[LampScore]:
     """Score estimators on the context's outer folds (lamp-grouped, the same
     folds for every estimator). One record per (estimator, surface mode, outer
     fold, test lamp) with the lamp's mean |error| per metric (CCT in K and in
@@ -266,7 +267,7 @@ def cross_validate(
                     rec["train_lamps"] = len(s.train)
                 rec.update(record_errors(e, t, valid[lamp]))
                 if res is not None:
-                    rec.update(_interval_fields(res.interval90[sel], t, valid[lamp]))
+                    rec.update(interval_fields(res.interval90[sel], t, valid[lamp]))
                     l1 = np.array(res.level1, dtype=object)[sel]
                     rec["level1_correct"] = float(np.mean(l1 == lamps.level1[lamp]))
                     l2p = np.array(res.level2, dtype=object)[sel]
@@ -281,47 +282,7 @@ def cross_validate(
                         rec["tm30_in_prior"] = n_tm30
                 if modelled_per_class > 0:
                     rec.update(model_info.get(name) or _modelled_fields(inv))
-                out.append(rec)
-    return out
-
-
-def record_errors(est, truth, valid) -> dict:
-    """A record's error fields for one lamp: its pixels' estimates `est`
-    (n, 3) in `METRICS` order against its `truth` (3,); the mean |error| per
-    metric (None where `valid` says the truth has no meaning), CCT also in
-    mired, a null CCT estimate counting as the range's far end
-    (`CCT_RANGE_K`), and the rate of null CCTs."""
-    rec: dict = {}
-    for m, name in enumerate(METRICS):
-        if not valid[m]:
-            rec[name] = None
-            continue
-        v = est[:, m]
-        if name == "CCT":
-            # a null CCT (not meaningful) counts as the range's far end
-            vv = np.where(np.isfinite(v), v, CCT_RANGE_K[1])
-            rec["CCT"] = float(np.mean(np.abs(vv - truth[m])))
-            rec["CCT_mired"] = float(np.mean(np.abs(MIRED / vv - MIRED / truth[m])))
-            rec["CCT_null_rate"] = float(np.mean(~np.isfinite(v)))
-        else:
-            rec[name] = float(np.mean(np.abs(v - truth[m])))
-    return rec
-
-
-def _interval_fields(iv, truth, valid) -> dict:
-    """Per valid metric of one lamp: the fraction of its pixels whose 90 %
-    interval `iv` (n, 3, 2) holds the true value (`{m}_covered`) and the
-    intervals' mean width (`{m}_width`: lm/W, 1, K; CCT also in mired,
-    `CCT_width_mired`)."""
-    out = {}
-    for m, name in enumerate(METRICS):
-        if not valid[m]:
-            continue
-        lo, hi = iv[:, m, 0], iv[:, m, 1]
-        out[f"{name}_covered"] = float(np.mean((lo <= truth[m]) & (truth[m] <= hi)))
-        out[f"{name}_width"] = float(np.mean(hi - lo))
-        if name == "CCT":
-            out["CCT_width_mired"] = float(np.mean(MIRED / lo - MIRED / hi))
+                out.append(LampScore(**rec))
     return out
 
 

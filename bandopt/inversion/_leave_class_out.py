@@ -11,12 +11,12 @@ from ..folds import stratified_lamp_folds
 from ._context import _basis, band_weights_on, context_moon, context_setup
 from ._crossval import (
     _check_never_scored,
-    _interval_fields,
     _modelled_fields,
     _out_of_range,
 )
 from ._fit import fit_inversion
 from ._lamps import MODELLED_CLASSES, planck_lamps, with_planck_lamps, with_tm30_lamps
+from ._records import interval_fields
 from ._scoring import SIGMA_FLOOR
 from ._surfaces import _surface_knowledge
 
@@ -171,7 +171,7 @@ def leave_one_class_out(
                 e = res.estimate[sel, m]
                 ee = np.where(np.isfinite(e), e, CCT_RANGE_K[1]) if name == "CCT" else e
                 rec[name] = float(np.mean(np.abs(ee - t[m])))
-            rec.update(_interval_fields(iv90[sel], t, v))
+            rec.update(interval_fields(iv90[sel], t, v))
             if tag is not None:
                 rec["intervals"] = tag
             if modelled_in_prior is not None:

@@ -16,12 +16,11 @@ import numpy as np
 from ..datasets import atmosphere
 from ..datasets.lamps import library
 from ..estimate import LampTable, lamp_truth
-from ..folds import N_INNER_FOLDS, N_OUTER_FOLDS, nested_lamp_splits
-from ..forward import band_radiance
+from ..folds import N_INNER_FOLDS, N_OUTER_FOLDS, Folds, lamp_folds
+from ..forward import ScenarioTable, band_radiance, scenario_table
 from ..inversion import library_lamps
 from ..scene import LIGHTING_CLASSES, build_scenarios
 from ._perturbed import KINDS, MEASURED_SPECTRA, perturbed_scenes
-from ._problem import scenario_spectra
 
 
 PRESETS = {
@@ -56,25 +55,62 @@ N_OUTER, N_INNER = N_OUTER_FOLDS, N_INNER_FOLDS
 
 @dataclasses.dataclass(frozen=True)
 class Context:
-    """A scenario set ready for searches: spectra `(l, q, w)`, lamp table,
-    nested splits, labels, and the photon-noise setting.
+    """A scenario table ready for searches and estimators: every scene as a
+    labelled row (`scenes`, a `bandopt.forward.ScenarioTable`), the nested
+    lamp splits (`folds`), each lamp's true metrics, and the photon-noise
+    setting.
 
-    `scene_kind` `(l, q)`: the index into `KINDS` of each scene's lamp
-    spectrum (all 0, `clean`, without `ScenePerturbations`). The scenes of a lamp are
-    surface x copy x atmosphere x Moon x class in C order (copy 0 the clean
-    spectrum; one copy without perturbations), so a scene's surface, Moon and
-    class sit where the clean layout puts them."""
+    - `preset`: the scenario preset (`PRESETS`); `config` records it.
+    - `scenes`: rows lamp-major; a preset with `perturbations` repeats each
+      scene under them (`ScenarioTable.kind` indexes `KINDS`; layout surface x
+      copy x atmosphere x Moon x class per lamp, copy 0 the clean spectrum).
+    - `folds`: `bandopt.folds.Folds` over the lamps, stratified by level-2 type.
+    - `truth`, `valid`: LER, G, CCT of each lamp and whether defined, `(l, 3)`.
+    - `noise`: photon noise on; `noise_radiance`: the level every scene is
+      scaled to before noise, or None. [W m⁻² sr⁻¹ nm⁻¹]
+
+    The searches' views: `toa` `(l, q, w)`, `table` (`LampTable`), `splits`
+    (the folds), `scene_kind` `(l, q)`, `lamp_ids`, `wavelength_nm`."""
 
     preset: str
-    toa: np.ndarray
-    wavelength_nm: np.ndarray
-    table: LampTable
-    lamp_ids: tuple[str, ...]
-    splits: tuple
+    scenes: ScenarioTable
+    folds: Folds
+    truth: np.ndarray
+    valid: np.ndarray
     config: dict
     noise: bool
     noise_radiance: float | None
-    scene_kind: np.ndarray | None = None
+
+    @property
+    def toa(self) -> np.ndarray:
+        """TOA spectra of each lamp's scenes, `(l, q, w)`. [W m⁻² sr⁻¹ nm⁻¹]"""
+        return self.scenes.per_lamp(self.scenes.toa)
+
+    @property
+    def wavelength_nm(self) -> np.ndarray:
+        return self.scenes.wavelength_nm
+
+    @property
+    def lamp_ids(self) -> tuple[str, ...]:
+        return self.scenes.lamp_ids
+
+    @property
+    def splits(self) -> Folds:
+        return self.folds
+
+    @property
+    def scene_kind(self) -> np.ndarray:
+        """Index into `KINDS` of each scene's lamp spectrum, `(l, q)`."""
+        kind = self.scenes.kind
+        if kind is None:
+            return np.zeros((self.scenes.n_lamps, self.scenes.scenes_per_lamp), int)
+        return self.scenes.per_lamp(kind)
+
+    @functools.cached_property
+    def table(self) -> LampTable:
+        """Per-row lamp index, level-2 type per lamp and true metrics, for
+        lamp-grouped fits."""
+        return LampTable(self.scenes.lamp, self.scenes.level2, self.truth, self.valid)
 
     def radiance(self, bands, *, seed: int = 0) -> np.ndarray:
         """Band-averaged radiance `(N, b)` of every scene for any band set
@@ -165,25 +201,35 @@ def get_context(
     truth, valid = lamp_truth(lib.values, lib.wavelength_nm)
     classes = np.asarray([r.level2 for r in lib.records], dtype=object)
     if perturbations is None:
-        toa = scenario_spectra(scen)
-        kind = np.zeros(toa.shape[:2], int)
+        scenes = scenario_table(scen)
     else:
         lamps = library_lamps(np.asarray(scen.factors.wavelength_nm), scored=True)
         if lamps.ids != scen.lamp_ids:
             raise RuntimeError("scenario lamps and the inversion's lamps differ")
         toa, kind = perturbed_scenes(scen, lamps, perturbations)
-    table = LampTable(
-        np.repeat(np.arange(len(classes)), toa.shape[1]), classes, truth, valid
-    )
-    splits = tuple(
-        nested_lamp_splits(classes, n_outer=N_OUTER, n_inner=N_INNER, seed=fold_seed)
-    )
+        # (l, q) -> (l, s, copy, a, m, c): perturbed_scenes's layout
+        n_s, n_a, n_c = (
+            len(scen.surface_labels),
+            len(scen.atmosphere_labels),
+            len(scen.class_labels),
+        )
+        n_k = 1 + perturbations.n_copies
+        shape = (len(classes), n_s, n_k, n_a, -1, n_c)
+        scenes = scenario_table(
+            scen,
+            spectra=toa.reshape(*shape, toa.shape[-1]),
+            kind=kind.reshape(shape),
+            kinds=KINDS,
+        )
+    if not np.array_equal(scenes.level2, classes):
+        raise RuntimeError("scenario table and library types differ")
+    folds = lamp_folds(classes, n_outer=N_OUTER, n_inner=N_INNER, seed=fold_seed)
     config = {
         "preset": preset,
         "scenarios": scen.config,
         "noise": noise,
         "n_lamps": len(classes),
-        "scenes_per_lamp": int(toa.shape[1]),
+        "scenes_per_lamp": scenes.scenes_per_lamp,
         "perturbations": None if perturbations is None else perturbations.to_dict(),
         "fold_seed": fold_seed,
         "n_outer": N_OUTER,
@@ -191,7 +237,7 @@ def get_context(
         "atmospheres": [a if isinstance(a, str) else list(a) for a in atms],
     }
     if perturbations is not None:
-        counts = np.bincount(kind.ravel(), minlength=len(KINDS))
+        counts = np.bincount(scenes.kind, minlength=len(KINDS))
         config["clean_scenes_per_lamp"] = int(counts[0]) // len(classes)
         config["rows_per_kind"] = {
             k: int(n) for k, n in zip(KINDS, counts, strict=True) if n
@@ -199,15 +245,4 @@ def get_context(
         config["scene_layout"] = (
             "surface x copy x atmosphere x Moon x class per lamp, copy 0 clean"
         )
-    return Context(
-        preset,
-        toa,
-        np.asarray(scen.factors.wavelength_nm),
-        table,
-        scen.lamp_ids,
-        splits,
-        config,
-        noisy,
-        level,
-        kind,
-    )
+    return Context(preset, scenes, folds, truth, valid, config, noisy, level)

@@ -108,7 +108,7 @@ def make_task(**kwargs) -> dict:
 def _lamps_and_splits(ctx: Context, fold):
     if fold == "final":
         lamps = np.arange(ctx.table.n_lamps)
-        splits = [(s.train, s.test) for s in ctx.splits]
+        splits = ctx.folds.outer()
         return lamps, splits, None, None
     s = ctx.splits[int(fold)]
     return s.train, list(s.inner), s.train, s.test

@@ -243,15 +243,14 @@ def run(study: Study, argv=None) -> int:
             continue
         ctx = get_context(study.preset, None, p, study.atmospheres)
         t1 = time.time()
-        recs = inv_mod.cross_validate(
+        scores = inv_mod.cross_validate(
             ctx,
             band_set(name),
             estimators=study.estimators,
             surface_modes=study.band_sets[name],
             seed=p,
         )
-        for r in recs:
-            r.update(partition=p, band_set=name)
+        recs = [r.as_record(partition=p, band_set=name) for r in scores]
         records += keep_unit(rec_path, recs)
         say(
             f"partition {p}, {name}: {time.time() - t1:.0f} s "

@@ -102,15 +102,18 @@ def unit(p: int, name: str, fraction: float = 1.0, surfaces=("unknown",)) -> lis
     kw = dict(estimators=(DEFAULT,), seed=p, surface_modes=tuple(surfaces))
     held = inv_mod.cross_validate(ctx, bands, train_fraction=fraction, **kw)
     if fraction < 1.0:
-        for r in held:
-            r.update(scored="test", partition=p, band_set=name)
-        return held
+        return [r.as_record(scored="test", partition=p, band_set=name) for r in held]
     own = inv_mod.cross_validate(ctx, bands, folds=[FOLD], scored="train", **kw)
-    for r in held:  # the training lamps of its fold (the smaller ones say it)
-        r.update(scored="test", train_lamps=len(ctx.splits[r["fold"]].train))
-    for r in held + own:
-        r.update(partition=p, band_set=name)
-    return held + own
+    # held-out records say their fold's training lamps (the smaller ones do too)
+    return [
+        r.as_record(
+            scored="test",
+            train_lamps=len(ctx.splits[r.fold].train),
+            partition=p,
+            band_set=name,
+        )
+        for r in held
+    ] + [r.as_record(partition=p, band_set=name) for r in own]
 
 
 def relabel(records: list[dict]) -> list[dict]:

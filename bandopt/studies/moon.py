@@ -191,9 +191,7 @@ def run(argv=None) -> int:
                     surface_modes=("unknown",),
                     seed=p,
                 )
-                for x in r:
-                    x.update(partition=p, band_set=name, moon=label)
-                recs += r
+                recs += [x.as_record(partition=p, band_set=name, moon=label) for x in r]
                 log(f"Moon {label}, partition {p}, {name}: {time.time() - t0:.0f} s")
         summ = inv_mod.summarise(recs)
         for s in summ:
