@@ -1,14 +1,14 @@
 """Nested lamp-grouped evaluation of a band set for lamp-type classification.
 
 For every outer fold of `bandopt.folds.nested_lamp_splits` (stratified by
-level-2 class, the same folds as the band search of issue 5 for the same
+level-2 class, the same folds as the band search for the same
 seed): features of the band radiances, k chosen by inner-fold macro F1, the
 one-vs-all KNN fitted on the outer training lamps and applied to the outer
 test lamps. Scores are computed over the pooled outer test predictions (each
 scored lamp is tested exactly once); per-fold macro F1 is reported beside.
 Only scored classes (`LampLibrary.is_scored`) take part.
 
-**Modelled training lamps** (`modelled_per_class` > 0, issue 11 b): in every
+**Modelled training lamps** (`modelled_per_class` > 0): in every
 outer fold, `modelled_per_class` lamps per class of `modelled_classes` from
 the physical lamp models calibrated on that fold's measured training lamps
 only (`_modelled.modelled_rows`), lighting the table's scenes, join the

@@ -30,7 +30,7 @@ surface, `bandopt.inversion.measured_surfaces`, drawn with the noise seed).
 The same knowledge is given to the inner folds that choose the band-error
 scale and threshold, and to the test pixels.
 
-**Modelled lamps** (`modelled_per_class` > 0, issue 11 b): that many
+**Modelled lamps** (`modelled_per_class` > 0): that many
 modelled lamps per class of `modelled_classes` join every prior the fit
 builds, calibrated on that prior's measured training lamps only
 (`bandopt.inversion.fit_inversion`, seed = the noise seed); they are never

@@ -1,4 +1,4 @@
-"""Modelled training lamps for the KNN classifier (issue 11 b): the table's
+"""Modelled training lamps for the KNN classifier: the table's
 scenes lit by modelled lamps, as extra training rows.
 
 `modelled_rows` samples lamps of the rare classes from the physical lamp

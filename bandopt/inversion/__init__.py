@@ -17,8 +17,8 @@ pixel's brightness: `α` and `β` are solved for in closed form.
 **Priors (learned from training lamps and surfaces only).**
 
 - Lamp: a class-balanced mixture over the training lamps (each level-2 class
-  the same prior mass, each lamp the same within its class) — the sparse
-  non-negative mixture of issue 12 in its one-component limit, so the posterior
+  the same prior mass, each lamp the same within its class) — a sparse
+  non-negative mixture in its one-component limit, so the posterior
   is a weighted set of real, measured spectra. Measured lamps of classes too
   small to be scored (e.g. low-pressure sodium) always belong to the prior:
   they are never scored, so they cannot leak. Optionally

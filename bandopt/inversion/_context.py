@@ -51,7 +51,7 @@ def augment_with_modelled(
     classes: Sequence[str] = MODELLED_CLASSES,
     seed: int = 0,
 ) -> Augmented:
-    """Add modelled lamps to a learned estimator's training data (issue 11 b).
+    """Add modelled lamps to a learned estimator's training data.
 
     For the outer training lamps `train` and for each inner split's training
     lamps, `n_per_class` modelled lamps per class of `classes`

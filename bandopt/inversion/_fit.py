@@ -63,7 +63,7 @@ the one with the least held-out error of that metric: `Inversion.
 metric_sigma`; one more scoring per pixel when they differ). A small
 `σ_rel` weighs the bands nearly by absolute error (the floor `SIGMA_FLOOR`
 is then a third of the error), a large one by relative error; LER is best
-estimated with the former, G and CCT with the latter (measured: issue 12,
+estimated with the former, G and CCT with the latter (measured by
 `make study NAME=estimate-mix`), so one σ for all three is a trade-off."""
 
 

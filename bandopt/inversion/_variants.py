@@ -54,7 +54,7 @@ def mixture_lamps(
     scenes drops to ~0 (0.04 lm/W, partition 0, fold 0, σ_rel 0.003), so the
     scene (surface, atmosphere, Moon) is not what limits it; the prior's
     coverage of lamp space is. Mixtures of two real lamps of one class are
-    the sparse non-negative mixture of issue 12 in its two-component limit:
+    a sparse non-negative mixture in its two-component limit:
     their spectra, and so their LER, G and CCT, are physical by construction
     (a blend of two measured lamps of that type), and they are built from the
     prior's own lamps only, so they never carry a scored lamp. Ids

@@ -35,7 +35,7 @@ EXPERIMENTS = (
     Experiment("overlap", "Overlapping lamp types", "spatial/overlap.json",
                "make spatial"),
     Experiment("estimate", "Inversion estimator: interval coverage", "estimate/",
-               "the inversion experiment of issue 12 (writes results/estimate/)"),
+               "make estimate (writes results/estimate/)"),
     Experiment("library", "Lamp library and NIR-extension validation",
                "library/nir_validation.json", "python -m experiments.lamp_library"),
     Experiment("noise_aware", "Noise-aware bands", "noise_aware/noise_aware.json",

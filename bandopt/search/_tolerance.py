@@ -51,7 +51,7 @@ LEAKAGE_NOTE = (
 
 MAX_ERROR_RATIO = 1.10
 """A deviation is tolerated while every metric's MAE stays <= 1.10 x nominal
-(issue 13: "errors stay within 10 %"). [1]"""
+(the design goal: errors stay within 10 %). [1]"""
 
 CENTRE_SHIFTS_NM = np.arange(-10.0, 10.01, 1.0)
 """Centre shifts scanned, one band at a time. [nm]"""

@@ -1,7 +1,7 @@
 """How many bands the goal needs: evaluate's estimator on contiguous bands.
 
 `bandopt evaluate`'s estimator (`inversion-moon-mix-metric-narrow-shift-planck`,
-surface unknown, the Moon told) misses issue 12's goal (5 lm/W, G 0.10,
+surface unknown, the Moon told) misses the estimation goal (5 lm/W, G 0.10,
 200 K) with our pan + 5 bands. `make estimate-library` found that a lamp
 the prior holds is estimated within the goal, so either the six bands carry
 too little of the spectrum, or the prior (measured lamps, their blends and
@@ -43,7 +43,7 @@ from .defaults import DEFAULT
 
 COUNTS = (13, 26, 52)
 """Band counts of the contiguous sets (40, 20 and 10 nm wide over 380-900 nm;
-52 x 10 nm is issue 12's own reconstruction test)."""
+52 x 10 nm is the spectral-reconstruction test)."""
 
 BAND_SETS = {
     "recommended": ("unknown",),
@@ -332,7 +332,7 @@ def figure(summary: dict, path) -> None:
                 yy, vv = zip(*pts, strict=True)
                 ax.plot(vv, yy, marker, color="k", ls="none",
                         label=f"direct, surface {mode}")  # fmt: skip
-        ax.axvline(GOAL[m], color="C2", ls="--", label="issue 12's goal")
+        ax.axvline(GOAL[m], color="C2", ls="--", label="goal")
         if near:
             ax.axvline(near[m], color="C3", ls=":", label="nearest library lamp")
         ax.set_yticks(y, [r["band_set"] for r in rows], fontsize=8)

@@ -1,7 +1,7 @@
 """More measured lamps in the prior: the IES TM-30-15 set.
 
 `make estimate-library` found that what stands between `bandopt evaluate`'s
-estimate and issue 12's goal is the library's coverage of lamp kinds: with
+estimate and the estimation goal is the library's coverage of lamp kinds: with
 the lamp in the prior our bands meet the goal, and the held-out error falls
 with the number of training lamps. The IES TM-30-15 source library
 (`IES2015`, vendored from LuxPy) holds measured commercial and experimental
