@@ -126,16 +126,9 @@ def readme_text(summary, paired, unseen, variants=()) -> str:
             "Paired differences (reference sensor minus recommended, by partition; "
             "positive = the reference sensor is worse):",
             "",
-            "| vs | estimator | surface | LER | G | CCT [K] |",
-            "|---|---|---|---|---|---|",
-        ]
-        for p in paired:
-            cells = diff_cells(p)
-            lines.append(
-                f"| {p['band_set']} | {p['estimator']} | {p['surface']} | "
-                + " | ".join(cells)
-                + " |"
-            )
+            *_diff_table(paired, ("vs", "estimator", "surface"),
+                         ("band_set", "estimator", "surface")),
+        ]  # fmt: skip
     if variants:
         lines += [
             "",
@@ -144,16 +137,9 @@ def readme_text(summary, paired, unseen, variants=()) -> str:
             "(variant minus base estimator, same band set and folds, by partition; "
             "positive = the variant is worse; `estimator_paired.json`):",
             "",
-            "| band set | variant | vs | surface | LER | G | CCT [K] |",
-            "|---|---|---|---|---|---|---|",
-        ]
-        for p in variants:
-            cells = diff_cells(p)
-            lines.append(
-                f"| {p['band_set']} | {p['estimator']} | {p['vs']} | {p['surface']} | "
-                + " | ".join(cells)
-                + " |"
-            )
+            *_diff_table(variants, ("band set", "variant", "vs", "surface"),
+                         ("band_set", "estimator", "vs", "surface")),
+        ]  # fmt: skip
     for name, u in (unseen or {}).items():
         o = u["overall"]
         n_u = u.get("modelled_per_class", 0)
@@ -178,6 +164,17 @@ def readme_text(summary, paired, unseen, variants=()) -> str:
         ]
         lines += where_lines(u.get("by_class"))
     return "\n".join(lines) + "\n"
+
+
+def _diff_table(rows, head, keys) -> list[str]:
+    """README table lines of paired `rows`: columns `head` (the rows' `keys`),
+    then the differences of LER, G and CCT (`diff_cells`), header first."""
+    lines = ["| " + " | ".join(head) + " | LER | G | CCT [K] |"]
+    lines.append("|---" * (len(head) + 3) + "|")
+    for p in rows:
+        cells = [str(p[k]) for k in keys] + diff_cells(p)
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
 
 
 def training_sentence(summary) -> str:
