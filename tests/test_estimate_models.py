@@ -1,7 +1,7 @@
-"""`experiments/estimate.py --modelled-per-class` (issue 11): without it every
-output is as before (the committed README section is regenerated exactly from
-the committed records, which have no modelled-lamp keys); with it the records,
-summary, README text and manifest say how many modelled lamps were used."""
+"""`bandopt.studies.estimate` with `--modelled-per-class`: the committed
+README section is regenerated exactly from the committed records, and a run
+with modelled lamps says how many were used in its records, summary, README
+text and manifest."""
 
 import json
 from pathlib import Path
@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from bandopt import inversion as inv_mod
-from experiments import estimate as est
+from bandopt.studies import estimate as est
 
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
@@ -119,9 +119,9 @@ def test_a_run_with_modelled_lamps_says_so_everywhere():
     cfg = est.modelled_lamps_config(7)
     assert cfg["modelled_per_class"] == 7
     assert "7 modelled lamps per class" in cfg["training_lamps"]
-    cov = est._coverage(summary, unseen)
+    cov = est.interval_coverage(summary, unseen)
     assert f"recommended/unknown/{est.MODELS}" in cov["held_out_lamps"]
-    rec = est._recommendation(summary, cov)["class_balanced_mae"]
+    rec = est.recommendation(summary, cov)["class_balanced_mae"]
     assert rec[f"recommended/{est.MODELS}/unknown"]["modelled_per_class"] == 7
     # the default run's recommendation rows have no such key
     plain = inv_mod.summarise([r for r in recs if r["estimator"] == "inversion"])
@@ -129,7 +129,7 @@ def test_a_run_with_modelled_lamps_says_so_everywhere():
         del r["modelled_per_class"]
     assert all(
         "modelled_per_class" not in v
-        for v in est._recommendation(plain, {})["class_balanced_mae"].values()
+        for v in est.recommendation(plain, {})["class_balanced_mae"].values()
     )
 
 
@@ -138,9 +138,9 @@ def test_resume_refuses_records_of_another_modelled_setting(tmp_path):
         "\n".join(json.dumps(r) for r in _records(7)) + "\n"
     )
     with pytest.raises(SystemExit, match="--modelled-per-class 7, not 3"):
-        est.main(
+        est.run(
             ["--out", str(tmp_path), "--resume", "--modelled-per-class", "3",
              "--band-sets", "recommended"]
         )
     with pytest.raises(SystemExit):
-        est.main(["--out", str(tmp_path), "--modelled-per-class", "-1"])
+        est.run(["--out", str(tmp_path), "--modelled-per-class", "-1"])

@@ -1,4 +1,4 @@
-"""`experiments/unseen_ceiling.py` on small synthetic spectra: the features,
+"""`bandopt.studies.unseen_ceiling` on small synthetic spectra: the features,
 the held-out-class scoring (copies, another family's spectra, a family with
 one class), the inversion numbers read from a summary, the README table and
 the figure. No library, no scenes."""
@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from experiments import unseen_ceiling as uc
+from bandopt.studies import unseen_ceiling as uc
 
 
 GRID = np.arange(400.0, 420.0)  # 20 samples, 1 nm

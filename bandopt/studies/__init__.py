@@ -15,7 +15,13 @@ here, run by `make study NAME=...` (`make study` lists them).
 - `_study`: `Study`, `run`, the default figure, the manifest;
 - `library`, `moon`: two studies with machinery of their own (what a lamp
   the library lacks costs; the Moon's share of the error), run by
-  `make estimate-library` and `make estimate-moon`.
+  `make estimate-library` and `make estimate-moon`;
+- `unseen_ceiling` (`_ceiling`, `_ceiling_text`): what classifiers trained
+  on the library's other lamp types attain on unseen types, from bare
+  spectra, run by `make unseen-ceiling`;
+- `estimate` (`_estimate_report`): the inversion against the ridge and
+  kernel-ridge baselines per band set and surface mode, run by
+  `make estimate`.
 """
 
 from ..names import CanonicalMapping
