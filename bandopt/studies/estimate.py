@@ -231,23 +231,23 @@ def unit(preset: str, p: int, name: str, n_model: int) -> list[dict]:
         if len(bands.names) > 1
         else ("inversion", EVIDENCE, MOON, "ridge")
     )
-    recs = inv_mod.cross_validate(
+    labels = dict(partition=p, band_set=name)
+    scores = inv_mod.cross_validate(
         ctx, bands, estimators=ests, surface_modes=modes, seed=p
     )
-    if n_model:
-        for r in recs:
-            r["modelled_per_class"] = 0
-        recs += inv_mod.cross_validate(
-            ctx,
-            bands,
-            estimators=modelled_estimators(name, len(bands.names)),
-            surface_modes=("unknown",),
-            seed=p,
-            modelled_per_class=n_model,
-        )
-    for r in recs:
-        r.update(partition=p, band_set=name)
-    return recs
+    if not n_model:
+        return [r.as_record(**labels) for r in scores]
+    # the plain estimators' records say they had no modelled lamps
+    recs = [r.as_record(modelled_per_class=0, **labels) for r in scores]
+    modelled = inv_mod.cross_validate(
+        ctx,
+        bands,
+        estimators=modelled_estimators(name, len(bands.names)),
+        surface_modes=("unknown",),
+        seed=p,
+        modelled_per_class=n_model,
+    )
+    return recs + [r.as_record(**labels) for r in modelled]
 
 
 def write_summary_csv(summary: list[dict], path: Path) -> None:
