@@ -15,7 +15,9 @@ here, run by `make study NAME=...` (`make study` lists them).
 - `_study`: `Study`, `run`, the default figure, the manifest;
 - `library`, `moon`: two studies with machinery of their own (what a lamp
   the library lacks costs; the Moon's share of the error), run by
-  `make estimate-library` and `make estimate-moon`.
+  `make estimate-library` and `make estimate-moon`;
+- `classification_partitions`: lamp-type classification of fixed band sets
+  over lamp partitions (`make classify-partitions`).
 """
 
 from ..names import CanonicalMapping
@@ -59,6 +61,7 @@ from ._units import (
     load_records as load_records,
     log as log,
     partition_args as partition_args,
+    write_csv as write_csv,
 )
 from .ablations import bands, defaults, intervals, mix, noise, planck, shift, tm30
 
