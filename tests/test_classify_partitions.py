@@ -170,3 +170,18 @@ def test_readme_section_is_read_from_the_summary():
     readme = (root / "README.md").read_text()
     a, b = "<!-- classify-partitions:start -->", "<!-- classify-partitions:end -->"
     assert text.strip() == readme[readme.index(a) + len(a) : readme.index(b)].strip()
+
+
+def test_csv_tables_hold_every_column_and_lists_as_json(tmp_path):
+    """`studies.write_csv`: columns in first-seen order over all rows, a
+    missing value empty, lists and dicts as JSON (summary.csv's per-partition
+    values)."""
+    import csv
+
+    from bandopt.studies import write_csv
+
+    path = tmp_path / "t.csv"
+    write_csv(path, [{"a": 1, "b": [0.5, None]}, {"a": 2, "c": {"x": "y"}}])
+    with path.open(newline="") as fh:
+        rows = list(csv.reader(fh))
+    assert rows == [["a", "b", "c"], ["1", "[0.5, null]", ""], ["2", "", '{"x": "y"}']]

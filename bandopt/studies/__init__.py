@@ -10,14 +10,17 @@ records, summary, figure, manifest and README section. A new question about
 the estimator is a new `Study` in `bandopt.studies.ablations`, registered
 here, run by `make study NAME=...` (`make study` lists them).
 
-- `_units`: band sets by name, the records file, the command line;
+- `_units`: band sets by name, the records file, the command line, CSV
+  tables;
 - `_text`: README cells, per-class means, `variant_text`;
 - `_study`: `Study`, `run`, the default figure, the manifest;
 - `library`, `moon`: two studies with machinery of their own (what a lamp
   the library lacks costs; the Moon's share of the error), run by
   `make estimate-library` and `make estimate-moon`;
-- `classification_partitions`: lamp-type classification of fixed band sets
-  over lamp partitions (`make classify-partitions`).
+- `classification`, `classification_partitions`: lamp-type classification
+  (its band search, the reference sensors, the conditions' influence:
+  `make classify`) and fixed band sets classified over lamp partitions
+  (`make classify-partitions`).
 """
 
 from ..names import CanonicalMapping
