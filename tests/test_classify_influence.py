@@ -1,5 +1,5 @@
-"""Influence of the conditions and the band-count choice (library logic of
-experiments/classify.py)."""
+"""Influence of the conditions and the band-count choice (the classification
+study, `bandopt.studies.classification`, builds on them)."""
 
 import numpy as np
 import pytest

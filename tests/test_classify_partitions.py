@@ -1,14 +1,15 @@
-"""The partitions experiment of lamp-type classification
-(`experiments.classify_partitions`): its plan, the aggregation over
-partitions, the paired differences, and a `--quick` run that resumes."""
+"""Lamp-type classification over lamp partitions
+(`bandopt.studies.classification_partitions`): its plan, the aggregation over
+partitions, the paired differences, and a quick run that resumes."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from experiments import classify_partitions as cp
+import bandopt.studies.classification_partitions as cp
 
 
 def _rec(design, est, p, f2, f1=None, n_model=0, surface="unknown", n_bands=3):
@@ -120,7 +121,7 @@ def test_paired_mean_is_the_difference_of_means(values):
 
 def test_quick_run_writes_everything_and_resumes(tmp_path, capsys):
     out = tmp_path / "q"
-    assert cp.main(["--quick", "--out", str(out)]) == 0
+    assert cp.run(out, quick=True) == 0
     for name in ("records.jsonl", "summary.json", "summary.csv", "paired.csv",
                  "f1_partitions.png", "report.md", "manifest.json"):  # fmt: skip
         assert (out / name).is_file(), name
@@ -146,7 +147,7 @@ def test_quick_run_writes_everything_and_resumes(tmp_path, capsys):
     lines = (out / "records.jsonl").read_text().splitlines()
     (out / "records.jsonl").write_text("\n".join([*lines[:-1], lines[-1][:40]]))
     capsys.readouterr()
-    assert cp.main(["--quick", "--out", str(out)]) == 0
+    assert cp.run(out, quick=True) == 0
     log = capsys.readouterr().out
     assert "unreadable line dropped" in log and f"{n_units - 1} finished earlier" in log
     again = json.loads((out / "summary.json").read_text())
@@ -156,11 +157,6 @@ def test_quick_run_writes_everything_and_resumes(tmp_path, capsys):
 
 
 def test_readme_section_is_read_from_the_summary():
-    import json
-    from pathlib import Path
-
-    from experiments import classify_partitions as cp
-
     root = Path(__file__).resolve().parents[1] / "results"
     summary = json.loads((root / "classify_partitions" / "summary.json").read_text())
     text = cp.readme_text(summary)
@@ -174,3 +170,18 @@ def test_readme_section_is_read_from_the_summary():
     readme = (root / "README.md").read_text()
     a, b = "<!-- classify-partitions:start -->", "<!-- classify-partitions:end -->"
     assert text.strip() == readme[readme.index(a) + len(a) : readme.index(b)].strip()
+
+
+def test_csv_tables_hold_every_column_and_lists_as_json(tmp_path):
+    """`studies.write_csv`: columns in first-seen order over all rows, a
+    missing value empty, lists and dicts as JSON (summary.csv's per-partition
+    values)."""
+    import csv
+
+    from bandopt.studies import write_csv
+
+    path = tmp_path / "t.csv"
+    write_csv(path, [{"a": 1, "b": [0.5, None]}, {"a": 2, "c": {"x": "y"}}])
+    with path.open(newline="") as fh:
+        rows = list(csv.reader(fh))
+    assert rows == [["a", "b", "c"], ["1", "[0.5, null]", ""], ["2", "", '{"x": "y"}']]

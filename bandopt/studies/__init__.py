@@ -10,7 +10,8 @@ records, summary, figure, manifest and README section. A new question about
 the estimator is a new `Study` in `bandopt.studies.ablations`, registered
 here, run by `make study NAME=...` (`make study` lists them).
 
-- `_units`: band sets by name, the records file, the command line;
+- `_units`: band sets by name, the records file, the command line, CSV
+  tables;
 - `_text`: README cells, per-class means, `variant_text`;
 - `_study`: `Study`, `run`, the default figure, the manifest;
 - `library`, `moon`: two studies with machinery of their own (what a lamp
@@ -21,7 +22,11 @@ here, run by `make study NAME=...` (`make study` lists them).
   spectra, run by `make unseen-ceiling`;
 - `estimate` (`_estimate_report`): the inversion against the ridge and
   kernel-ridge baselines per band set and surface mode, run by
-  `make estimate`.
+  `make estimate`;
+- `classification`, `classification_partitions`: lamp-type classification
+  (its band search, the reference sensors, the conditions' influence:
+  `make classify`) and fixed band sets classified over lamp partitions
+  (`make classify-partitions`).
 """
 
 from ..names import CanonicalMapping
@@ -65,6 +70,7 @@ from ._units import (
     load_records as load_records,
     log as log,
     partition_args as partition_args,
+    write_csv as write_csv,
 )
 from .ablations import bands, defaults, intervals, mix, noise, planck, shift, tm30
 

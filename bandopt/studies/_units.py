@@ -1,8 +1,10 @@
 """The units a study is made of and kept by: band sets by name, the
 records file a resumable run appends each finished (partition, band set)
-unit to, and the command line every partitioned study shares."""
+unit to, the command line every partitioned study shares, and its CSV
+tables."""
 
 import argparse
+import csv
 import json
 import sys
 import time
@@ -105,3 +107,19 @@ def partition_args(argv, description: str, out: str, unseen: bool = True):
     if only is not None and args.out is None:
         ap.error("--only-partitions needs its own --out (a partial summary).")
     return args, range(args.partitions) if only is None else only
+
+
+def write_csv(path: Path, rows) -> None:
+    """`rows` (dicts) as a CSV table: the columns are every key in first-seen
+    order, list and dict values are written as JSON."""
+    keys = list(dict.fromkeys(k for r in rows for k in r))
+    with path.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, keys)
+        w.writeheader()
+        for r in rows:
+            w.writerow(
+                {
+                    k: json.dumps(v) if isinstance(v, (list, dict)) else v
+                    for k, v in r.items()
+                }
+            )
