@@ -160,37 +160,28 @@ def noise_aware_text(data: dict) -> str:
     return text[0] + "\n" + " ".join(text[1:])
 
 
+def _read(path: Path):
+    return json.loads(path.read_text())
+
+
 def write_readme_section(section: str, results: str | Path = "results") -> Path:
     """Write README section `section` (one of `README_SECTIONS`) of
     `results/README.md` from its experiment's files under `results`; returns
     the README's path."""
     root = Path(results)
     if section == "classification":
-        summary = json.loads((root / "classify" / "summary.json").read_text())
-        return update_readme_section(
-            "classification",
-            classification_text(summary),
-            heading="## Classification",
-            results_dir=root,
-        )
-    if section == "spatial":
-        summary = json.loads((root / "spatial" / "summary.json").read_text())
+        text = classification_text(_read(root / "classify" / "summary.json"))
+        heading = "## Classification"
+    elif section == "spatial":
         ov = root / "spatial" / "overlap.json"
-        overlap = json.loads(ov.read_text()) if ov.is_file() else None
-        return update_readme_section(
-            "spatial",
-            spatial_text(summary, overlap),
-            heading="## Spatial sampling",
-            results_dir=root,
+        overlap = _read(ov) if ov.is_file() else None
+        text = spatial_text(_read(root / "spatial" / "summary.json"), overlap)
+        heading = "## Spatial sampling"
+    elif section == "noise-aware":
+        text = noise_aware_text(_read(root / "noise_aware" / "noise_aware.json"))
+        heading = "## Noise-aware bands"
+    else:
+        raise ValueError(
+            f"unknown section {section!r}; expected one of {list(README_SECTIONS)}"
         )
-    if section == "noise-aware":
-        data = json.loads((root / "noise_aware" / "noise_aware.json").read_text())
-        return update_readme_section(
-            "noise-aware",
-            noise_aware_text(data),
-            heading="## Noise-aware bands",
-            results_dir=root,
-        )
-    raise ValueError(
-        f"unknown section {section!r}; expected one of {list(README_SECTIONS)}"
-    )
+    return update_readme_section(section, text, heading=heading, results_dir=root)
