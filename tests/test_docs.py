@@ -53,7 +53,7 @@ def test_docs_config_needs_no_network():
 
 
 def test_tutorial_doc_matches_the_script():
-    from experiments import tutorial
+    from bandopt import tutorial
 
     doc = (DOCS / "tutorial.rst").read_text()
     for lamp in tutorial.LAMPS:
@@ -125,7 +125,7 @@ def test_guide_own_surface_snippet_runs(tmp_path, monkeypatch):
 
 
 def test_guide_own_lamp_snippet_runs(tmp_path, monkeypatch):
-    from experiments.tutorial import export_lamps
+    from bandopt.tutorial import export_lamps
 
     files = export_lamps(tmp_path)
     assert [f.stem for f in files] == sorted(["lspdd_2469", "lspdd_2470", "lspdd_2481"])
@@ -145,7 +145,7 @@ def test_guide_estimator_snippet_runs(capsys):
 
 
 def test_tutorial_picks_the_estimator_from_the_help(monkeypatch):
-    from experiments import tutorial
+    from bandopt import tutorial
 
     opt, label = tutorial.estimator_option()
     import subprocess

@@ -206,6 +206,9 @@ LAYERS = [
     ("bandopt.datasets._lamp_screens", "bandopt.datasets._lamp_sources"),
     ("bandopt.datasets._lamp_screens", "bandopt.datasets.nir"),
     ("bandopt.datasets._lamp_screens", "bandopt.datasets.lamps"),
+    # the library's report describes lamps and nir, neither imports it
+    ("bandopt.datasets.lamps", "bandopt.datasets.lamp_report"),
+    ("bandopt.datasets.nir", "bandopt.datasets.lamp_report"),
     # the inversion is an estimator the search, classification and evaluation use
     ("bandopt.inversion", "bandopt.search"),
     ("bandopt.inversion", "bandopt.classify"),

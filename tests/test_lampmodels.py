@@ -1,7 +1,8 @@
 """Physical lamp models: spectra, NIST line positions, the instrument operator,
 fitting (recovery of a known model spectrum), calibration and sampling (modelled
-lamps never scored). The leave-one-lamp-out validation on the measured library
-is `experiments/lamp_models.py` (too slow for the test suite)."""
+lamps never scored). The leave-one-lamp-out validation on the whole measured
+library (`lampmodels.write_validation`, `make lamp-models`) is too slow for the
+test suite; its summary is tested on rows made up here."""
 
 import jax
 import jax.numpy as jnp
@@ -229,3 +230,31 @@ def test_samples_of_lamps_measured_to_780_nm_stop_there(extend):
     assert np.all(np.isnan(out.values[:, beyond])) == (not extend)
     assert all(r.extended == extend for r in out.records)
     assert all(r.measured_range_nm == (380.0, 780.0) for r in out.records)
+
+
+def test_validation_summary_reads_the_rows():
+    """Medians over the rows that have a value, NaN left out; coverage is the
+    share of held-out lamps strictly inside the samples' 5-95 %."""
+    rows = [
+        {"fit_nrms": 0.1, "fit_converged": True, "ler_fit_rel_err": -0.02,
+         "cct_fit_err_k": 30.0, "loo": "ok", "loo_ler_median_rel_err": 0.1,
+         "loo_ler_percentile": 0.5, "loo_cct_median_err_k": float("nan"),
+         "loo_cct_percentile": float("nan"), "loo_nearest_sample_nrms": 1.0,
+         "loo_nearest_measured_nrms": 2.0},
+        {"fit_nrms": 0.3, "fit_converged": False, "ler_fit_rel_err": 0.04,
+         "cct_fit_err_k": -50.0, "loo": "ok", "loo_ler_median_rel_err": -0.3,
+         "loo_ler_percentile": 0.99, "loo_cct_median_err_k": -100.0,
+         "loo_cct_percentile": 0.2, "loo_nearest_sample_nrms": 3.0,
+         "loo_nearest_measured_nrms": 4.0},
+    ]  # fmt: skip
+    s = lm.summarise_validation(rows)
+    assert s["measured_lamps"] == 2 and s["fit_converged"] == 1
+    assert s["fit_nrms_median"] == pytest.approx(0.2)
+    assert s["fit_ler_abs_rel_err_median"] == pytest.approx(0.03)
+    assert s["loo_lamps"] == 2
+    assert s["loo_ler_abs_rel_err_median"] == pytest.approx(0.2)
+    assert s["loo_ler_90pc_interval_coverage"] == 0.5
+    assert s["loo_cct_abs_err_k_median"] == 100.0  # the NaN row left out
+    assert s["loo_cct_90pc_interval_coverage"] == 1.0
+    one = lm.summarise_validation([{**rows[0], "loo": "not possible"}])
+    assert one["loo_lamps"] == 0 and one["loo"].startswith("not possible")

@@ -406,3 +406,24 @@ def test_manifest_records_the_lamp_sets():
     info = lamp_library_info()
     assert info["lspdd"] is True and info["source_sets"]["lspdd"] >= 150
     assert {"color_pollution", "photobiology", "li1800"} <= set(info["source_sets"])
+
+
+def test_counts_table_pairs_classes_before_and_after():
+    """A class absent before reads 0 lamps and "absent"; `|` in a status is
+    escaped in the Markdown table."""
+    from bandopt.datasets.lamp_report import counts_markdown, counts_table
+
+    before = [{"level1": "hid", "level2": "hps", "lamps": 3, "status": "scored"}]
+    after = [
+        {"level1": "hid", "level2": "hps", "lamps": 7, "cie_typical": 1,
+         "nir_measured": 2, "status": "scored"},
+        {"level1": "led", "level2": None, "lamps": 0, "cie_typical": 0,
+         "excluded": 4, "status": "excluded: |Duv| too large"},
+    ]  # fmt: skip
+    rows = counts_table(before, after)
+    assert [r["lamps_before"] for r in rows] == [3, 0]
+    assert [r["status_before"] for r in rows] == ["scored", "absent"]
+    assert rows[1]["excluded_after"] == 4 and rows[0]["nir_measured_after"] == 2
+    text = counts_markdown(rows, 3, 11)
+    assert "| hid | hps | 3 | 7 | 1 | 2 | scored | scored |" in text
+    assert "| 0 | absent | excluded: \\|Duv\\| too large |" in text

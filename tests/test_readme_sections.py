@@ -7,8 +7,12 @@ import json
 import shutil
 from pathlib import Path
 
-from bandopt.report import consistency_messages
-from experiments import readme_sections
+from bandopt.report import (
+    classification_text,
+    consistency_messages,
+    noise_aware_text,
+    write_readme_section,
+)
 
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
@@ -23,8 +27,8 @@ def _copy(tmp_path, *rels):
 def test_generated_sections_pass_the_drift_check(tmp_path):
     _copy(tmp_path, "README.md", "classify/summary.json", "spatial/summary.json",
           "spatial/overlap.json", "recommendation.json")
-    readme_sections.write("classification", tmp_path)
-    readme_sections.write("spatial", tmp_path)
+    write_readme_section("classification", tmp_path)
+    write_readme_section("spatial", tmp_path)
     text = (tmp_path / "README.md").read_text()
     assert text.count("<!-- classification:start -->") == 1
     assert text.count("<!-- spatial:start -->") == 1
@@ -37,8 +41,8 @@ def test_classification_text_follows_the_summary():
     changed = copy.deepcopy(summary)
     row = next(r for r in changed["band_count"] if r["method"] == "nlopt")
     row["level2_macro_f1"] = 0.123
-    assert "0.12 / " in readme_sections.classification_text(changed)
-    assert "0.12 / " not in readme_sections.classification_text(summary)
+    assert "0.12 / " in classification_text(changed)
+    assert "0.12 / " not in classification_text(summary)
 
 
 def test_noise_aware_text_follows_the_file(tmp_path):
@@ -50,7 +54,7 @@ def test_noise_aware_text_follows_the_file(tmp_path):
             {"level": "P6", "cv_loss": 0.6, "bands": [[452.0, 130.0]]},
         ],
     }
-    text = readme_sections.noise_aware_text(data)
+    text = noise_aware_text(data)
     # C0 and P6 are 50 and 2 lx (bandopt.scene.LIGHTING_CLASSES)
     assert "C0 (50 lx) 440/100; P6 (2 lx) 452/130; noise-free 500/100" in text
     assert "at most 12 nm in centre and 30 nm in width" in text
@@ -58,6 +62,6 @@ def test_noise_aware_text_follows_the_file(tmp_path):
     (tmp_path / "noise_aware").mkdir()
     (tmp_path / "noise_aware" / "noise_aware.json").write_text(json.dumps(data))
     (tmp_path / "README.md").write_text("# Results\n\n## Noise-aware bands\n\nold\n")
-    readme_sections.write("noise-aware", tmp_path)
+    write_readme_section("noise-aware", tmp_path)
     out = (tmp_path / "README.md").read_text()
     assert "old" not in out and out.count("<!-- noise-aware:start -->") == 1

@@ -70,12 +70,14 @@ never SCORE: `LampLibrary.is_scored` is False for them, and every result that
 used them must say so. `log_prior(cal, z)` gives the calibrated Gaussian
 log-density for use as an inversion prior.
 
-Validation is in `experiments/lamp_models.py` (leave-one-lamp-out per class).
+**Validation** (`write_validation`, `make lamp-models`): fit quality and
+leave-one-lamp-out per class, scored on measured lamps only.
 
 Modules: `_families` (the line lists, the bounded parameters, the five
-families and `spectrum`), `_fit` (the instrument's sampling and `fit`) and
-`_calibrate` (`Calibration`, `calibrate` and `sample_library` on the library);
-this package re-exports their names.
+families and `spectrum`), `_fit` (the instrument's sampling and `fit`),
+`_calibrate` (`Calibration`, `calibrate` and `sample_library` on the library)
+and `_validation` (`validate_class`, `write_validation`); this package
+re-exports their names.
 """
 
 from ..spectra import GRID_1NM as GRID_1NM
@@ -138,6 +140,16 @@ from ._fit import (
     native_step_nm as native_step_nm,
     sampling_matrix as sampling_matrix,
 )
+from ._validation import (
+    VALIDATION_COLUMNS as VALIDATION_COLUMNS,
+    VISIBLE_NM as VISIBLE_NM,
+    nrms as nrms,
+    summarise_validation as summarise_validation,
+    unit_visible as unit_visible,
+    validate_class as validate_class,
+    validation_figure as validation_figure,
+    write_validation as write_validation,
+)
 
 
 __all__ = [
@@ -160,6 +172,10 @@ __all__ = [
     "sample_library",
     "sample_z",
     "spectrum",
+    "summarise_validation",
     "to_values",
     "to_z",
+    "validate_class",
+    "validation_figure",
+    "write_validation",
 ]

@@ -7,6 +7,9 @@ not been run as MISSING, and writes `out_dir/index.html` with every figure
 embedded (base64 PNG) and every number linked to the file (and JSON pointer or
 CSV row/column) it came from. `bandopt report --out DIR` and `make report` call
 it.
+
+`write_readme_section(section, results_dir)` writes the README sections that
+quote the classification, spatial and noise-aware results (`_readme`).
 """
 
 import dataclasses
@@ -17,6 +20,13 @@ from pathlib import Path
 from . import _sections
 from ._checks import CHECKS, ReportDriftError, check_consistency, spatial_median
 from ._html import page
+from ._readme import (
+    README_SECTIONS,
+    classification_text,
+    noise_aware_text,
+    spatial_text,
+    write_readme_section,
+)
 from ._sections import EXPERIMENTS, Ctx
 from ._source import ReportInputError, Sources, resolve_pointer
 
@@ -24,15 +34,20 @@ from ._source import ReportInputError, Sources, resolve_pointer
 __all__ = [
     "EXPERIMENTS",
     "MAX_BYTES",
+    "README_SECTIONS",
     "SECTIONS",
     "ReportDriftError",
     "ReportInputError",
     "ReportResult",
     "build_report",
     "check_consistency",
+    "classification_text",
     "consistency_messages",
+    "noise_aware_text",
     "resolve_pointer",
     "spatial_median",
+    "spatial_text",
+    "write_readme_section",
 ]
 
 MAX_BYTES = 5_000_000
