@@ -37,9 +37,9 @@ def main(argv=None) -> int:
     )
     if Path(args.out) == Path("results/noise_aware"):
         # the README section quotes the committed results only
-        from experiments.readme_sections import write as write_section
+        from bandopt.report import write_readme_section
 
-        write_section("noise-aware")
+        write_readme_section("noise-aware")
     for r in rows:
         print(
             f"{r['level']:>10s}: loss {r['cv_loss']:.4f}  "

@@ -16,10 +16,6 @@ import sys
 from bandopt.report import README_SECTIONS, write_readme_section
 
 
-write = write_readme_section
-"""The name `experiments.noise_aware` imports."""
-
-
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("section", choices=README_SECTIONS)
