@@ -7,6 +7,9 @@ not been run as MISSING, and writes `out_dir/index.html` with every figure
 embedded (base64 PNG) and every number linked to the file (and JSON pointer or
 CSV row/column) it came from. `bandopt report --out DIR` and `make report` call
 it.
+
+`bandopt.report.before_after` sets the headline numbers of two revisions'
+results side by side (`make before-after`).
 """
 
 import dataclasses
