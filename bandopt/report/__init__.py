@@ -9,7 +9,9 @@ CSV row/column) it came from. `bandopt report --out DIR` and `make report` call
 it.
 
 `bandopt.report.before_after` sets the headline numbers of two revisions'
-results side by side (`make before-after`).
+results side by side (`make before-after`); `check_in_browser` opens the
+built page in headless Chromium and checks what a reader sees (`make
+check-report`).
 """
 
 import dataclasses
@@ -18,6 +20,7 @@ import html
 from pathlib import Path
 
 from . import _sections
+from ._browser import check_in_browser
 from ._checks import CHECKS, ReportDriftError, check_consistency, spatial_median
 from ._html import page
 from ._sections import EXPERIMENTS, Ctx
@@ -33,6 +36,7 @@ __all__ = [
     "ReportResult",
     "build_report",
     "check_consistency",
+    "check_in_browser",
     "consistency_messages",
     "resolve_pointer",
     "spatial_median",
