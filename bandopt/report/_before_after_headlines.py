@@ -14,42 +14,53 @@ Headline = tuple[str, str, object]
 MAE_UNITS = {"LER": "lm/W", "G": "1", "CCT": "K"}
 
 
+def _keyed(f: Files, name: str, table, obj=None) -> list[Headline]:
+    """Headlines (key, label, value at path) of `table`, rows (key, label,
+    path inside file `name` or inside `obj`, a part of it)."""
+    return [(key, label, f.get(name, path, obj)) for key, label, path in table]
+
+
 def _search_compare(f: Files) -> list[Headline]:
     n = "compare.json"
     rec = f.get(n, "pareto/recommended")
     design = f.get(n, f"designs/{rec}")
-    out = [
+    out = _keyed(
+        f,
+        n,
         (
-            "chosen_n",
-            "chosen number of free bands (+ pan)",
-            f.get(n, "band_count/chosen_n"),
-        ),
-        (
-            "best_n",
-            "band count with the lowest normalised MAE",
-            f.get(n, "band_count/best_n"),
-        ),
-        ("recommended", "recommended design", rec),
-        (
-            "norm_mae",
-            "recommended: normalised MAE [1]",
-            f.get(n, "norm_mae_mean", design),
-        ),
-    ]
-    out += [
-        (f"mae_{m}", f"recommended: {m} MAE [{u}]", f.get(n, f"mae_mean/{m}", design))
-        for m, u in MAE_UNITS.items()
-    ]
-    out.append(("f1", "recommended: level-2 macro F1 [1]", f.get(n, "f1_mean", design)))
-    for ref in ("sdgsat-1", "nightsat"):
-        out += [
+            ("chosen_n", "chosen number of free bands (+ pan)", "band_count/chosen_n"),
             (
-                f"reduction_{ref}_{m}",
-                f"{m} MAE reduction vs {ref} [1]",
-                f.get(n, f"reductions/{ref}/recommended/{m}/reduction"),
-            )
-            for m in MAE_UNITS
+                "best_n",
+                "band count with the lowest normalised MAE",
+                "band_count/best_n",
+            ),
+        ),
+    )
+    out.append(("recommended", "recommended design", rec))
+    out += _keyed(
+        f,
+        n,
+        [("norm_mae", "recommended: normalised MAE [1]", "norm_mae_mean")]
+        + [
+            (f"mae_{m}", f"recommended: {m} MAE [{u}]", f"mae_mean/{m}")
+            for m, u in MAE_UNITS.items()
         ]
+        + [("f1", "recommended: level-2 macro F1 [1]", "f1_mean")],
+        design,
+    )
+    for ref in ("sdgsat-1", "nightsat"):
+        out += _keyed(
+            f,
+            n,
+            [
+                (
+                    f"reduction_{ref}_{m}",
+                    f"{m} MAE reduction vs {ref} [1]",
+                    f"reductions/{ref}/recommended/{m}/reduction",
+                )
+                for m in MAE_UNITS
+            ],
+        )
     return out
 
 
@@ -133,48 +144,44 @@ RADIANCE = "W m-2 sr-1 nm-1"
 
 def _radiometry_summary(f: Files) -> list[Headline]:
     n = "summary.json"
-    return (
-        [
+    out = _keyed(
+        f,
+        n,
+        (
             (
                 "linear_bits",
                 "recommended linear bit depth",
-                f.get(n, "bit_depth/recommended_linear_bits"),
+                "bit_depth/recommended_linear_bits",
             ),
             (
                 "companded_bits",
                 "recommended companded bit depth",
-                f.get(n, "bit_depth/recommended_companded_bits"),
+                "bit_depth/recommended_companded_bits",
             ),
             (
                 "ner_bits",
                 "linear bits for a step <= NER at the limit",
-                f.get(n, "bits_linear_step_le_ner_at_limit"),
+                "bits_linear_step_le_ner_at_limit",
             ),
-        ]
-        + [
-            (
-                f"clip_{m}",
-                f"noise, clipped, unquantised: {m} MAE [{u}]",
-                _num(
-                    f.get(
-                        n,
-                        f"{m}_mae",
-                        f.row(n, f.get(n, "bit_depth_table"), scheme="clip"),
-                    )
-                ),
-            )
-            for m, u in MAE_UNITS.items()
-        ]
-        + [
-            (
-                "clip_f1",
-                "noise, clipped, unquantised: level-2 macro F1 [1]",
-                f.get(
-                    n, "macro_f1", f.row(n, f.get(n, "bit_depth_table"), scheme="clip")
-                ),
-            ),
-        ]
+        ),
     )
+    clip = f.row(n, f.get(n, "bit_depth_table"), scheme="clip")
+    out += [
+        (
+            f"clip_{m}",
+            f"noise, clipped, unquantised: {m} MAE [{u}]",
+            _num(f.get(n, f"{m}_mae", clip)),
+        )
+        for m, u in MAE_UNITS.items()
+    ]
+    out.append(
+        (
+            "clip_f1",
+            "noise, clipped, unquantised: level-2 macro F1 [1]",
+            f.get(n, "macro_f1", clip),
+        )
+    )
+    return out
 
 
 def _radiometry_limits(f: Files) -> list[Headline]:
