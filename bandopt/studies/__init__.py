@@ -15,7 +15,9 @@ here, run by `make study NAME=...` (`make study` lists them).
 - `_study`: `Study`, `run`, the default figure, the manifest;
 - `library`, `moon`: two studies with machinery of their own (what a lamp
   the library lacks costs; the Moon's share of the error), run by
-  `make estimate-library` and `make estimate-moon`.
+  `make estimate-library` and `make estimate-moon`;
+- `external_tm30`: `bandopt evaluate` run as a user runs it on the measured
+  lamps of the IES TM-30-15 set the library lacks (`make external-tm30`).
 """
 
 from ..names import CanonicalMapping
