@@ -69,7 +69,7 @@ def _is_num(v) -> bool:
 
 def change(before, after) -> dict:
     """`change`: after - before for numbers (element-wise for lists of equal
-    length), "same" / "changed" otherwise; `relative`: change / |before| where
+    length), "same" / "changed" otherwise; `relative`: change / `abs(before)` where
     both are numbers and before is not 0; None where it does not apply."""
     if before in (NOT_RUN, ABSENT) or after in (NOT_RUN, ABSENT):
         return {"change": None, "relative": None}
