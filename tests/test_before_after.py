@@ -1,4 +1,4 @@
-"""experiments.before_after on the committed results (git HEAD): every headline
+"""bandopt.report.before_after on the committed results (git HEAD): every headline
 is read from its file, a missing key fails naming file and key, a missing file
 shows "not run", unchanged experiments are marked "NOT re-run", and the output
 is strict JSON. No experiment runs; no made-up result files (a variant is a
@@ -10,27 +10,65 @@ from pathlib import Path
 
 import pytest
 
-from bandopt.report import consistency_messages
-from experiments import before_after as ba
+from bandopt.report import (
+    _before_after_sides as sides,
+    before_after as ba,
+    consistency_messages,
+)
 
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
 
 EXPECTED_KEYS = {
     # the fixed headlines every run of each experiment must provide
-    "search": ["chosen_n", "best_n", "recommended", "norm_mae", "mae_LER", "mae_G",
-               "mae_CCT", "f1", "reduction_sdgsat-1_LER", "reduction_nightsat_CCT",
-               "band_names", "centre_nm", "fwhm_nm"],
-    "classify": ["chosen_n", "nested_l2", "rec_noisy_level1", "rec_noisy_level2",
-                 "ref_sdgsat-1_level2", "ref_nightsat_level1", "goal_margin",
-                 "goal_met"],
-    "radiometry": ["linear_bits", "companded_bits", "ner_bits", "clip_LER",
-                   "clip_f1", "sdgsat-1_limit", "nightsat_saturation",
-                   "viirs-dnb_bits"],
-    "spatial": ["median_gsd", "single_gsd", "scenes", "never", "overlap_gsd",
-                "overlap_f1_mixed"],
-    "estimate": ["mae_recommended/inversion/unknown", "mae_sdgsat-1/ridge/unknown",
-                 "coverage_unseen_types_recommended"],
+    "search": [
+        "chosen_n",
+        "best_n",
+        "recommended",
+        "norm_mae",
+        "mae_LER",
+        "mae_G",
+        "mae_CCT",
+        "f1",
+        "reduction_sdgsat-1_LER",
+        "reduction_nightsat_CCT",
+        "band_names",
+        "centre_nm",
+        "fwhm_nm",
+    ],
+    "classify": [
+        "chosen_n",
+        "nested_l2",
+        "rec_noisy_level1",
+        "rec_noisy_level2",
+        "ref_sdgsat-1_level2",
+        "ref_nightsat_level1",
+        "goal_margin",
+        "goal_met",
+    ],
+    "radiometry": [
+        "linear_bits",
+        "companded_bits",
+        "ner_bits",
+        "clip_LER",
+        "clip_f1",
+        "sdgsat-1_limit",
+        "nightsat_saturation",
+        "viirs-dnb_bits",
+    ],
+    "spatial": [
+        "median_gsd",
+        "single_gsd",
+        "scenes",
+        "never",
+        "overlap_gsd",
+        "overlap_f1_mixed",
+    ],
+    "estimate": [
+        "mae_recommended/inversion/unknown",
+        "mae_sdgsat-1/ridge/unknown",
+        "coverage_unseen_types_recommended",
+    ],
     "noise_aware": ["P4_cv_loss", "P4_centre_nm", "P4_fwhm_nm"],
 }
 
@@ -40,8 +78,11 @@ class Overlay:
 
     def __init__(self, base, changes: dict):
         self.base, self.changes = base, changes
-        self.commit, self.label, self.repo = base.commit, f"{base.label} (edited)", \
-            base.repo
+        self.commit, self.label, self.repo = (
+            base.commit,
+            f"{base.label} (edited)",
+            base.repo,
+        )
 
     def read(self, rel):
         return self.changes[rel] if rel in self.changes else self.base.read(rel)
@@ -104,31 +145,36 @@ def test_headlines_are_the_files_numbers(head, same):
     assert rows["search"]["chosen_n"] == cmp["band_count"]["chosen_n"]
     assert rows["search"]["recommended"] == rec
     assert rows["search"]["mae_CCT"] == cmp["designs"][rec]["mae_mean"]["CCT"]
-    assert rows["search"]["reduction_nightsat_CCT"] == (
-        cmp["reductions"]["nightsat"]["recommended"]["CCT"]["reduction"]
+    assert (
+        rows["search"]["reduction_nightsat_CCT"]
+        == (cmp["reductions"]["nightsat"]["recommended"]["CCT"]["reduction"])
     )
     bands = _load(head, "search/recommended_bands.json")["bands"]
     assert rows["search"]["centre_nm"] == [b["centre_nm"] for b in bands]
     cls = _load(head, "classify/summary.json")
-    assert rows["classify"]["nested_l2"] == (
-        cls["recommended"]["bands"]["level2_macro_f1_nested"]
+    assert (
+        rows["classify"]["nested_l2"]
+        == (cls["recommended"]["bands"]["level2_macro_f1_nested"])
     )
     rad = _load(head, "radiometry/summary.json")
-    assert rows["radiometry"]["linear_bits"] == (
-        rad["bit_depth"]["recommended_linear_bits"]
+    assert (
+        rows["radiometry"]["linear_bits"]
+        == (rad["bit_depth"]["recommended_linear_bits"])
     )
     est = _load(head, "estimate/summary.json")
-    r = next(x for x in est if (x["band_set"], x["estimator"], x["surface"])
-             == ("recommended", "inversion", "unknown"))
+    r = next(
+        x
+        for x in est
+        if (x["band_set"], x["estimator"], x["surface"])
+        == ("recommended", "inversion", "unknown")
+    )
     assert rows["estimate"]["mae_recommended/inversion/unknown"] == (
         [r["LER"], r["G"], r["CCT"]]
     )
     man = _load(head, "estimate/manifest.json")
-    assert same["experiments"]["estimate"]["after"]["git_commit"] == (
-        man["git_commit"]
-    )
-    assert same["experiments"]["estimate"]["after"]["created_utc"] == (
-        man["created_utc"]
+    assert same["experiments"]["estimate"]["after"]["git_commit"] == (man["git_commit"])
+    assert (
+        same["experiments"]["estimate"]["after"]["created_utc"] == (man["created_utc"])
     )
 
 
@@ -159,8 +205,9 @@ def test_missing_experiment_or_file_on_one_side_is_not_run(head):
     na = rec["experiments"]["noise_aware"]
     assert na["before"]["run"] and not na["after"]["run"]
     assert na["re_run"] is None
-    assert all(r["after"] == ba.NOT_RUN and r["change"] is None
-               for r in na["headlines"])
+    assert all(
+        r["after"] == ba.NOT_RUN and r["change"] is None for r in na["headlines"]
+    )
     assert all(r["before"] != ba.NOT_RUN for r in na["headlines"])
     sp = {r["key"]: r for r in rec["experiments"]["spatial"]["headlines"]}
     assert sp["overlap_f1_mixed"]["after"] == ba.NOT_RUN
@@ -187,9 +234,9 @@ def test_not_re_run_is_marked_and_a_re_run_is_not(head, same):
     assert "**NOT re-run (after = before): " + ", ".join(ba.EXPERIMENTS) in text
     man = _load(head, "search/manifest.json")
     man["created_utc"] = "2026-11-25T13:00:00+00:00"  # the file a re-run rewrites
-    rec = ba.compare(head, Overlay(head, {
-        "search/manifest.json": json.dumps(man).encode()
-    }))
+    rec = ba.compare(
+        head, Overlay(head, {"search/manifest.json": json.dumps(man).encode()})
+    )
     assert rec["experiments"]["search"]["re_run"] is True
     assert rec["experiments"]["classify"]["re_run"] is False
     text = ba.readme_text(rec)
@@ -209,9 +256,7 @@ def test_the_before_revision_of_issue_11_reads(head):
     rec = ba.compare(before, head)
     for exp, e in rec["experiments"].items():
         assert e["before"]["run"] and e["after"]["run"], exp
-        assert e["before"]["physics"]["summary"].startswith(
-            ba.NOT_RECORDED_PRE11
-        ), exp
+        assert e["before"]["physics"]["summary"].startswith(ba.NOT_RECORDED_PRE11), exp
         # ABSENT allowed: a quantity only the re-run has (e.g. one more band)
         assert all(r["before"] != ba.NOT_RUN for r in e["headlines"]), exp
 
@@ -228,10 +273,17 @@ def test_change_rules():
 
 
 def test_written_json_is_strict_and_readme_section_replaced(head, same, tmp_path):
-    for rel in ("README.md", "classify/summary.json", "spatial/summary.json",
-                "spatial/overlap.json", "recommendation.json",
-                "radiometry/limits.csv", "radiometry/summary.json",
-                "search/compare.json", "search/stability.json"):
+    for rel in (
+        "README.md",
+        "classify/summary.json",
+        "spatial/summary.json",
+        "spatial/overlap.json",
+        "recommendation.json",
+        "radiometry/limits.csv",
+        "radiometry/summary.json",
+        "search/compare.json",
+        "search/stability.json",
+    ):
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy(RESULTS / rel, tmp_path / rel)
     drift = [m for m in consistency_messages(tmp_path) if "README" in m]
@@ -241,8 +293,9 @@ def test_written_json_is_strict_and_readme_section_replaced(head, same, tmp_path
     def no_constants(name):
         raise AssertionError(f"non-strict JSON constant {name}")
 
-    data = json.loads((tmp_path / "before_after.json").read_text(),
-                      parse_constant=no_constants)
+    data = json.loads(
+        (tmp_path / "before_after.json").read_text(), parse_constant=no_constants
+    )
     assert data["before"]["commit"] == head.commit
     assert (tmp_path / "before_after_manifest" / "manifest.json").is_file()
     text = (tmp_path / "README.md").read_text()
@@ -255,8 +308,22 @@ def test_written_json_is_strict_and_readme_section_replaced(head, same, tmp_path
 
 
 def test_cli_prints_the_section_without_writing(capsys):
-    assert ba.main(["--before", "HEAD", "--after", "HEAD", "--results",
-                    str(RESULTS), "--experiments", "spatial", "--no-write"]) == 0
+    assert (
+        ba.run(
+            [
+                "--before",
+                "HEAD",
+                "--after",
+                "HEAD",
+                "--results",
+                str(RESULTS),
+                "--experiments",
+                "spatial",
+                "--no-write",
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert out.startswith("## Before / after issue 11")
     assert "### spatial (`results/spatial/`) - **NOT re-run**" in out
@@ -271,14 +338,14 @@ def test_a_lost_manifest_commit_is_dated_against_the_physics_commit(head):
     """A manifest whose commit is not in the repository: made before the
     commit that added the neighbourhood option is pre-issue-11; made after it,
     the physics is unknown (never guessed)."""
-    first = ba._first_physics_commit(head.repo)
+    first = sides._first_physics_commit(head.repo)
     if first is None:
         pytest.skip("this clone has no commit with scene physics options")
     lost = "0" * 40
-    early = ba._physics({}, lost, head.repo, "2000-01-01T00:00:00+00:00")
+    early = sides._physics({}, lost, head.repo, "2000-01-01T00:00:00+00:00")
     assert early["summary"].startswith(ba.NOT_RECORDED_PRE11 + ", by date")
     assert first[0][:7] in early["summary"]
-    late = ba._physics({}, lost, head.repo, "2999-01-01T00:00:00+00:00")
+    late = sides._physics({}, lost, head.repo, "2999-01-01T00:00:00+00:00")
     assert late["summary"] == "not recorded (manifest commit not in this repository)"
-    undated = ba._physics({}, lost, head.repo, None)
+    undated = sides._physics({}, lost, head.repo, None)
     assert undated["summary"] == late["summary"]

@@ -1,4 +1,4 @@
-"""`experiments/external_tm30.py` on synthetic `bandopt evaluate --json`
+"""`bandopt.studies.external_tm30` on synthetic `bandopt evaluate --json`
 outputs: per-lamp scores (errors, coverage, level-1, a null CCT as
 25,000 K, an unexplained lamp not scored as an error, out-of-range counts),
 class-balanced summaries with bootstrap intervals, paired differences and
@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from experiments import external_tm30 as ext
+from bandopt.studies import external_tm30 as ext
 
 
 CLASSES = {

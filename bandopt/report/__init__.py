@@ -10,6 +10,10 @@ it.
 
 `write_readme_section(section, results_dir)` writes the README sections that
 quote the classification, spatial and noise-aware results (`_readme`).
+`bandopt.report.before_after` sets the headline numbers of two revisions'
+results side by side (`make before-after`); `check_in_browser` opens the
+built page in headless Chromium and checks what a reader sees (`make
+check-report`).
 """
 
 import dataclasses
@@ -18,6 +22,7 @@ import html
 from pathlib import Path
 
 from . import _sections
+from ._browser import check_in_browser
 from ._checks import CHECKS, ReportDriftError, check_consistency, spatial_median
 from ._html import page
 from ._readme import (
@@ -41,6 +46,7 @@ __all__ = [
     "ReportResult",
     "build_report",
     "check_consistency",
+    "check_in_browser",
     "classification_text",
     "consistency_messages",
     "noise_aware_text",

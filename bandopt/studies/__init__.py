@@ -26,7 +26,9 @@ here, run by `make study NAME=...` (`make study` lists them).
 - `classification`, `classification_partitions`: lamp-type classification
   (its band search, the reference sensors, the conditions' influence:
   `make classify`) and fixed band sets classified over lamp partitions
-  (`make classify-partitions`).
+  (`make classify-partitions`);
+- `external_tm30`: `bandopt evaluate` run as a user runs it on the measured
+  lamps of the IES TM-30-15 set the library lacks (`make external-tm30`).
 """
 
 from ..names import CanonicalMapping
