@@ -1,4 +1,6 @@
-"""Shared result files: `results/recommendation.json`, merged by every experiment.
+"""Shared result files: `results/recommendation.json`, merged by every
+experiment, and the results index `results/README.md` with one page per
+experiment under `results/sections/`.
 
 Each experiment owns one top-level key (`"spectral"`, `"classification"`,
 `"radiometry"`, `"spatial"`) and replaces only that key, so experiments can run
@@ -143,22 +145,42 @@ def recommended_band_set(
 
 
 README = "README.md"
+"""The results index: one linked line per experiment's page."""
+SECTIONS = "sections"
+"""Folder of the experiments' pages under the results folder: `<name>.md`."""
+
+
+def _markers(name: str) -> tuple[str, str]:
+    return f"<!-- {name}:start -->", f"<!-- {name}:end -->"
+
+
+def _page_title(text: str, name: str) -> str:
+    for line in text.splitlines():
+        if line.startswith("#"):
+            return line.lstrip("#").strip()
+    return name
 
 
 def update_readme_section(
     name: str, text: str, *, heading: str | None = None,
     results_dir: str | Path | None = None,
 ) -> Path:
-    """Replace experiment `name`'s section of `results/README.md`: the text
-    between `<!-- name:start -->` and `<!-- name:end -->`. Without markers, a
-    hand-written section starting with the line `heading` (up to the next level-2
-    heading or marker) is replaced; else the section is appended. Sections are
-    written from the experiment's own result files, never typed by hand."""
+    """Write experiment `name`'s page `results/sections/<name>.md` (`text`)
+    and its entry in the index `results/README.md`: a link under the page's
+    first heading, between `<!-- name:start -->` and `<!-- name:end -->`.
+    Without markers, a hand-written index section starting with the line
+    `heading` (up to the next level-2 heading or marker) is replaced; else
+    the entry is appended. Pages are written from the experiment's own result
+    files, never typed by hand. Returns the page's path."""
     root = Path(results_dir) if results_dir is not None else RESULTS_DIR
+    page = root / SECTIONS / f"{name}.md"
+    page.parent.mkdir(parents=True, exist_ok=True)
+    page.write_text(text.strip() + "\n")
     path = root / README
     old = path.read_text() if path.is_file() else "# Results\n"
-    start, end = f"<!-- {name}:start -->", f"<!-- {name}:end -->"
-    block = f"{start}\n{text.strip()}\n{end}"
+    start, end = _markers(name)
+    entry = f"- [{_page_title(text, name)}]({SECTIONS}/{name}.md)"
+    block = f"{start}\n{entry}\n{end}"
     if start in old and end in old:
         new = old[: old.index(start)] + block + old[old.index(end) + len(end):]
     elif heading is not None and f"\n{heading}" in old:
@@ -170,4 +192,33 @@ def update_readme_section(
     else:
         new = old.rstrip("\n") + "\n\n" + block + "\n"
     path.write_text(new)
-    return path
+    return page
+
+
+def readme_section(name: str, results_dir: str | Path | None = None) -> str:
+    """Experiment `name`'s page text (stripped). Raises `FileNotFoundError`
+    naming the page when the experiment has not written it."""
+    root = Path(results_dir) if results_dir is not None else RESULTS_DIR
+    page = root / SECTIONS / f"{name}.md"
+    if not page.is_file():
+        raise FileNotFoundError(
+            f"{page}: no page of experiment {name!r} (its run writes it)."
+        )
+    return page.read_text().strip()
+
+
+def readme_text(results_dir: str | Path | None = None) -> str:
+    """The index with every entry replaced by its page's text, in index order:
+    all results as one text, for checks that read every quoted number. An
+    entry whose page is missing keeps its link line."""
+    root = Path(results_dir) if results_dir is not None else RESULTS_DIR
+    path = root / README
+    text = path.read_text() if path.is_file() else ""
+    pages = sorted((root / SECTIONS).glob("*.md")) if (root / SECTIONS).is_dir() else []
+    for page in pages:
+        start, end = _markers(page.stem)
+        if start in text and end in text:
+            i, j = text.index(start), text.index(end) + len(end)
+            body = page.read_text().strip()
+            text = text[:i] + f"{start}\n{body}\n{end}" + text[j:]
+    return text

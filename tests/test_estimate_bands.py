@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from bandopt import inversion as inv_mod
+from bandopt.results import readme_section
 from bandopt.studies import band_set, manifest_config
 from bandopt.studies.ablations import bands as eb
 from bandopt.studies.ablations.defaults import DEFAULT
@@ -107,9 +108,7 @@ def test_committed_section_is_generated_from_the_committed_summary():
     results = Path(__file__).resolve().parents[1] / "results"
     path = results / "estimate_bands" / "summary.json"
     summary = json.loads(path.read_text())
-    readme = (results / "README.md").read_text()
-    start, end = "<!-- estimate-bands:start -->", "<!-- estimate-bands:end -->"
-    section = readme[readme.index(start) + len(start) : readme.index(end)]
+    section = readme_section("estimate-bands", results)
     assert section.strip() == eb.readme_text(summary).strip()
     assert summary["scored_lamps"] == "measured lamps only"
     assert summary["modelled_lamps_used"] is True

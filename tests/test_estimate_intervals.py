@@ -5,6 +5,7 @@ estimate-intervals`)."""
 import pytest
 
 from bandopt import inversion as inv_mod
+from bandopt.results import readme_section
 from bandopt.studies import (
     STUDIES,
     by_intervals,
@@ -151,9 +152,7 @@ def test_committed_section_is_generated_from_the_committed_summary():
 
     results = Path(__file__).resolve().parents[1] / "results"
     summary = json.loads((results / "estimate_intervals" / "summary.json").read_text())
-    readme = (results / "README.md").read_text()
-    start, end = "<!-- estimate-intervals:start -->", "<!-- estimate-intervals:end -->"
-    section = readme[readme.index(start) + len(start) : readme.index(end)]
+    section = readme_section("estimate-intervals", results)
     assert section.strip() == ei.readme_text(summary).strip()
     assert summary["offset_grid"] == list(ei.GRID)
     assert summary["scored_lamps"] == "measured lamps only"

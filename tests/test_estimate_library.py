@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from bandopt import inversion as inv_mod
+from bandopt.results import readme_section
 from bandopt.studies import library as el
 
 
@@ -146,9 +147,7 @@ def test_estimator_is_evaluates():
 def test_committed_section_is_generated_from_the_committed_summary():
     results = Path(__file__).resolve().parents[1] / "results"
     summary = json.loads((results / "estimate_library" / "summary.json").read_text())
-    readme = (results / "README.md").read_text()
-    start, end = "<!-- estimate-library:start -->", "<!-- estimate-library:end -->"
-    section = readme[readme.index(start) + len(start) : readme.index(end)]
+    section = readme_section("estimate-library", results)
     assert section.strip() == el.readme_text(summary).strip()
     assert summary["modelled_lamps_used"] is True
     for row in summary["rows"]:

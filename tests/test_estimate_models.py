@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from bandopt import inversion as inv_mod
+from bandopt.results import readme_section
 from bandopt.studies import estimate as est
 
 
@@ -44,9 +45,7 @@ def test_committed_records_regenerate_the_committed_section():
     )
     assert json.loads(json.dumps(variants)) == committed_variants
     text = est.readme_text(summary, _paired(summary), unseen, variants)
-    readme = (RESULTS / "README.md").read_text()
-    a, b = "<!-- estimate:start -->", "<!-- estimate:end -->"
-    section = readme[readme.index(a) + len(a) : readme.index(b)].strip()
+    section = readme_section("estimate", RESULTS)
     assert text.strip() == section
     if n_model == 0:
         assert "no modelled lamp spectra" in text and est.MODELS not in text

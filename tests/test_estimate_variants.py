@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from bandopt import inversion as inv_mod
+from bandopt.results import readme_section
 from bandopt.studies import GRID, SHIFTS, manifest_config
 from bandopt.studies.ablations import (
     defaults as ed,
@@ -179,9 +180,7 @@ def test_committed_section_is_generated_from_the_committed_summary(module):
     results = Path(__file__).resolve().parents[1] / "results"
     study = module.STUDY
     summary = json.loads((results / Path(study.out).name / "summary.json").read_text())
-    readme = (results / "README.md").read_text()
-    start, end = f"<!-- {study.name}:start -->", f"<!-- {study.name}:end -->"
-    section = readme[readme.index(start) + len(start) : readme.index(end)]
+    section = readme_section(f"{study.name}", results)
     assert section.strip() == module.readme_text(summary).strip()
     assert summary["scored_lamps"] == "measured lamps only"
     assert summary["modelled_lamps_used"] is (study is not es.STUDY)

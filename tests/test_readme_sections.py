@@ -65,3 +65,5 @@ def test_noise_aware_text_follows_the_file(tmp_path):
     write_readme_section("noise-aware", tmp_path)
     out = (tmp_path / "README.md").read_text()
     assert "old" not in out and out.count("<!-- noise-aware:start -->") == 1
+    page = (tmp_path / "sections" / "noise-aware.md").read_text()
+    assert "C0 (50 lx) 440/100" in page

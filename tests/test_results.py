@@ -34,19 +34,47 @@ def test_update_recommendation_rejects_non_object(tmp_path):
         update_recommendation("x", 1, results_dir=tmp_path)
 
 
-def test_update_readme_section_replaces_marked_or_headed_text(tmp_path):
+def test_update_readme_section_writes_a_page_and_its_index_entry(tmp_path):
+    """A section is a page under `sections/` and one linked line in the index,
+    replacing a marked entry or a hand-written section; `readme_text` puts the
+    pages back in index order."""
+    from bandopt.results import readme_section, readme_text
+
     (tmp_path / "README.md").write_text(
         "# Results\n\n## Radiometry (x)\n\nold numbers 5e-8\n\n## Spatial\n\nkeep\n"
     )
-    update_readme_section("radiometry", "## Radiometry (x)\n\nnew 2.5e-09",
-                          heading="## Radiometry", results_dir=tmp_path)
+    page = update_readme_section("radiometry", "## Radiometry (x)\n\nnew 2.5e-09",
+                                 heading="## Radiometry", results_dir=tmp_path)
+    assert page == tmp_path / "sections" / "radiometry.md"
     text = (tmp_path / "README.md").read_text()
-    assert "old numbers" not in text and "new 2.5e-09" in text
+    assert "old numbers" not in text and "new 2.5e-09" not in text
+    assert "- [Radiometry (x)](sections/radiometry.md)" in text
     assert "## Spatial\n\nkeep" in text
     assert text.index("<!-- radiometry:start -->") < text.index("## Spatial")
+    assert readme_section("radiometry", tmp_path) == "## Radiometry (x)\n\nnew 2.5e-09"
+    whole = readme_text(tmp_path)
+    assert whole.index("new 2.5e-09") < whole.index("## Spatial")
     update_readme_section("radiometry", "third", results_dir=tmp_path)
     text = (tmp_path / "README.md").read_text()
-    assert "new 2.5e-09" not in text and text.count("radiometry:start") == 1
-    update_readme_section("other", "appended", results_dir=tmp_path)
+    assert text.count("radiometry:start") == 1 and "(sections/radiometry.md)" in text
+    assert readme_section("radiometry", tmp_path) == "third"
+    update_readme_section("other", "## Other\n\nappended", results_dir=tmp_path)
     assert (tmp_path / "README.md").read_text().rstrip().endswith(
-        "appended\n<!-- other:end -->")
+        "- [Other](sections/other.md)\n<!-- other:end -->")
+    with pytest.raises(FileNotFoundError, match="no page of experiment 'none'"):
+        readme_section("none", tmp_path)
+
+
+def test_committed_index_links_every_page():
+    """Every page under results/sections/ has its entry in the index, and every
+    entry's page exists."""
+    import re
+
+    from bandopt.results import README, RESULTS_DIR, SECTIONS
+
+    index = (RESULTS_DIR / README).read_text()
+    linked = set(re.findall(r"\]\(sections/([\w-]+)\.md\)", index))
+    pages = {p.stem for p in (RESULTS_DIR / SECTIONS).glob("*.md")}
+    assert linked == pages and len(pages) > 10
+    for name in pages:
+        assert index.count(f"<!-- {name}:start -->") == 1

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from bandopt.results import README, RESULTS_DIR
+from bandopt.results import RESULTS_DIR, readme_section
 from bandopt.studies import STUDIES, Study, run
 
 
@@ -36,9 +36,7 @@ def test_committed_section_is_generated_by_the_configuration(name):
     each study is its configuration's text of its committed summary."""
     study = STUDIES[name]
     summary = json.loads((ROOT / study.out / "summary.json").read_text())
-    readme = (RESULTS_DIR / README).read_text()
-    start, end = f"<!-- {name}:start -->", f"<!-- {name}:end -->"
-    section = readme[readme.index(start) + len(start) : readme.index(end)]
+    section = readme_section(f"{name}", RESULTS_DIR)
     assert section.strip() == study.readme(summary).strip()
 
 

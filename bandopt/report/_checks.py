@@ -16,6 +16,7 @@ import math
 import re
 import statistics
 
+from ..results import readme_text
 from ._source import ReportInputError, ReportUnreadableError, Sources
 
 
@@ -308,7 +309,7 @@ def check_readme(src: Sources) -> list[str]:
     path = src.path("README.md")
     if not path.is_file():
         return []
-    text = path.read_text()
+    text = readme_text(path.parent)
     out = []
     rad = _readme_section(text, "Radiometry")
     if rad and src.exists("radiometry/limits.csv"):

@@ -165,9 +165,9 @@ def _read(path: Path):
 
 
 def write_readme_section(section: str, results: str | Path = "results") -> Path:
-    """Write README section `section` (one of `README_SECTIONS`) of
-    `results/README.md` from its experiment's files under `results`; returns
-    the README's path."""
+    """Write the page `section` (one of `README_SECTIONS`) of the results
+    index (`bandopt.results.update_readme_section`) from its experiment's
+    files under `results`; returns the page's path."""
     root = Path(results)
     if section == "classification":
         text = classification_text(_read(root / "classify" / "summary.json"))
