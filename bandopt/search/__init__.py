@@ -24,7 +24,16 @@
 - `tolerance_analysis`, `perturbed_bands`, `specification_interval`
   (`_tolerance`): specification intervals of a band set, with the estimator
   fitted to the nominal bands and its coefficients refitted on the perturbed
-  (as-built) ones, hyper-parameters fixed (`CALIBRATION_FIXED`).
+  (as-built) ones, hyper-parameters fixed (`CALIBRATION_FIXED`);
+- `SearchOptions`, `STUDY`, `DEFAULT_OUT` (`_options`): what a run of
+  `python -m experiments.search` does and where it writes;
+- `run_study` (`_stability_study`): the stability study (`make run`), its
+  tasks and cached sweeps in `_study_sweep`, its README section in
+  `_study_readme`, its figures in `_figures`;
+- `single_split_sweep`, `single_split_compare`, `single_split_budget`
+  (`_single_split`): the single-split study (one partition, nlopt per fold);
+- `compare_solvers` (`_solvers`): the stability search against a plain Adam
+  loop on the same resamples.
 """
 
 from ._analysis import (
@@ -49,6 +58,12 @@ from ._context import (
     PRESETS as PRESETS,
     get_context as get_context,
 )
+from ._figures import (
+    plot_error_vs_bands as plot_error_vs_bands,
+    plot_pareto as plot_pareto,
+    plot_stability as plot_stability,
+    plot_v_band as plot_v_band,
+)
 from ._global import (
     ALGORITHMS as ALGORITHMS,
     NloptObjective as NloptObjective,
@@ -64,6 +79,11 @@ from ._noise_aware import (
     noise_aware_tasks as noise_aware_tasks,
     run_noise_aware as run_noise_aware,
 )
+from ._options import (
+    DEFAULT_OUT as DEFAULT_OUT,
+    STUDY as STUDY,
+    SearchOptions as SearchOptions,
+)
 from ._problem import (
     PAN_EDGES_NM as PAN_EDGES_NM,
     Problem as Problem,
@@ -77,6 +97,25 @@ from ._report import (
     paired_reduction as paired_reduction,
     plot_bands_over_lamps as plot_bands_over_lamps,
 )
+from ._single_split import (
+    EVALS_PER_DIM as EVALS_PER_DIM,
+    FOLDS as FOLDS,
+    GOAL as GOAL,
+    TARGETS as TARGETS,
+    single_split_budget as single_split_budget,
+    single_split_compare as single_split_compare,
+    single_split_reference_tasks as single_split_reference_tasks,
+    single_split_sweep as single_split_sweep,
+    single_split_tasks as single_split_tasks,
+    table_text as table_text,
+    v_band_experiment as v_band_experiment,
+)
+from ._solvers import (
+    ADAM as ADAM,
+    adam_search as adam_search,
+    compare_band_count as compare_band_count,
+    compare_solvers as compare_solvers,
+)
 from ._stability import (
     batched_loss as batched_loss,
     batched_search as batched_search,
@@ -87,6 +126,7 @@ from ._stability import (
     single_loss as single_loss,
     sorted_design as sorted_design,
 )
+from ._stability_study import run_study as run_study
 from ._study import (
     DEFAULT_SCORER as DEFAULT_SCORER,
     SCORER_NOTES as SCORER_NOTES,
@@ -97,8 +137,18 @@ from ._study import (
     make_study_task as make_study_task,
     run_study_task as run_study_task,
     score_design as score_design,
+    study_batch_data as study_batch_data,
     study_resamples as study_resamples,
     study_space as study_space,
+    task_resamples as task_resamples,
+)
+from ._study_readme import study_readme_text as study_readme_text
+from ._study_sweep import (
+    RUNNER as RUNNER,
+    StudyProgress as StudyProgress,
+    study_sweep as study_sweep,
+    study_tasks as study_tasks,
+    task_cost as task_cost,
 )
 from ._sweep import (
     TaskResults as TaskResults,

@@ -181,11 +181,39 @@ def study_space(task, ctx):
     )
 
 
+def study_batch_data(task, ctx, resamples):
+    """The search space of a study task and its batched data on `resamples`
+    (the context's noise setting, the task's seed)."""
+    space = study_space(task, ctx)
+    data = make_batch_data(
+        ctx.toa,
+        ctx.wavelength_nm,
+        ctx.table,
+        resamples,
+        space,
+        noise=ctx.noise,
+        noise_radiance=ctx.noise_radiance,
+        seed=task["seed"],
+    )
+    return space, data
+
+
 @functools.lru_cache(maxsize=4)
 def study_resamples(preset, noise, atmospheres, partitions, seed):
 
     ctx = get_context(preset, noise, 0, atmospheres)
     return ctx, tuple(lamp_resamples(ctx.table.classes, partitions, seed=seed))
+
+
+def task_resamples(task):
+    """`study_resamples` of a study task: its context and lamp resamples."""
+    return study_resamples(
+        task["preset"],
+        task["noise"],
+        task["atmospheres"],
+        task["partitions"],
+        task["seed"],
+    )
 
 
 STUDY_TASK = {
@@ -225,13 +253,7 @@ def make_study_task(**kw) -> dict:
 def run_study_task(task: dict) -> dict:
     """Run one stability task (search) or reference task (`sensor` set)."""
     t0 = time.perf_counter()
-    ctx, res = study_resamples(
-        task["preset"],
-        task["noise"],
-        task["atmospheres"],
-        task["partitions"],
-        task["seed"],
-    )
+    ctx, res = task_resamples(task)
     if task.get("sensor"):
         bands = reference_sensor(task["sensor"])
         scores = score_design(ctx, bands, res, scorer=task["scorer"], seed=task["seed"])
@@ -249,17 +271,7 @@ def run_study_task(task: dict) -> dict:
             "context": ctx.config,
             "wall_s": time.perf_counter() - t0,
         }
-    space = study_space(task, ctx)
-    data = make_batch_data(
-        ctx.toa,
-        ctx.wavelength_nm,
-        ctx.table,
-        res,
-        space,
-        noise=ctx.noise,
-        noise_radiance=ctx.noise_radiance,
-        seed=task["seed"],
-    )
+    space, data = study_batch_data(task, ctx, res)
     t1 = time.perf_counter()
     s = batched_search(
         data,
