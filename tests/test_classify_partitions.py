@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import bandopt.studies.classification_partitions as cp
+from bandopt.results import readme_section
 
 
 def _rec(design, est, p, f2, f1=None, n_model=0, surface="unknown", n_bands=3):
@@ -167,9 +168,7 @@ def test_readme_section_is_read_from_the_summary():
     m, sd = row["level2_macro_f1_mean"], row["level2_macro_f1_sd"]
     assert f"{m:.3f} ± {sd:.3f}" in text
     assert "| classification | sdgsat-1 |" in text
-    readme = (root / "README.md").read_text()
-    a, b = "<!-- classify-partitions:start -->", "<!-- classify-partitions:end -->"
-    assert text.strip() == readme[readme.index(a) + len(a) : readme.index(b)].strip()
+    assert text.strip() == readme_section("classify-partitions", root)
 
 
 def test_csv_tables_hold_every_column_and_lists_as_json(tmp_path):

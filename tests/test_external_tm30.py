@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bandopt.results import readme_section
 from bandopt.studies import external_tm30 as ext
 
 
@@ -114,9 +115,7 @@ def test_committed_section_is_generated_from_the_committed_summary():
     if not path.is_file():
         pytest.skip("make external-tm30 not run")
     summary = json.loads(path.read_text())
-    readme = (root / "README.md").read_text()
-    start, end = "<!-- external-tm30:start -->", "<!-- external-tm30:end -->"
-    section = readme[readme.index(start) + len(start) : readme.index(end)]
+    section = readme_section("external-tm30", root)
     assert section.strip() == ext.readme_text(summary).strip()
     for s in summary["band_sets"].values():
         assert s["out_of_range"] == 0 and s["tm30_lamps_in_prior"] == 0
@@ -145,3 +144,29 @@ def test_surface_known_runs_in_the_readme_text():
         "recommended, inversion", "contiguous-26, direct",
     ]  # fmt: skip
     assert ext.SURFACE_KNOWN["contiguous-26, direct"][1] == ("--estimator", "direct")
+
+
+def test_lamp_files_are_what_evaluate_accepts(tmp_path):
+    """Every TM-30 lamp file covers the 380-780 nm evaluate asks for: the
+    measured values as the library holds them, and where the library cut the
+    source's trailing zeros as the end of the measurement, zeros again."""
+    from bandopt.cli._evaluate_inputs import load_user_lamp
+    from bandopt.datasets.lamps import library
+
+    lib = library(tm30=True, extend_nir=False)
+    keep = [
+        i
+        for i, r in enumerate(lib.records)
+        if r.source_set == "ies_tm30" and r.excluded is None and r.level2 is not None
+    ]
+    cut = [i for i in keep if (lib.records[i].cut_reason or "").startswith("zeros")]
+    assert cut, "no TM-30 lamp is cut: the case this test is about is gone"
+    files = ext.lamp_files(lib, [keep[0], *cut[:3]], tmp_path)
+    for i, path in zip([keep[0], *cut[:3]], files, strict=True):
+        w, v = np.loadtxt(path, delimiter=",", skiprows=1).T
+        assert (w[0], w[-1]) == (380.0, 780.0)
+        lo, hi = lib.records[i].measured_range_nm
+        on = (lib.wavelength_nm >= lo) & (lib.wavelength_nm <= hi)
+        np.testing.assert_array_equal(v[w <= hi], lib.values[i][on])
+        assert np.all(v[w > hi] == 0.0)
+        load_user_lamp(path)  # evaluate takes it

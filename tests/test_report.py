@@ -155,6 +155,10 @@ def test_committed_results_agree_with_each_other():
 SMALL = (
     "recommendation.json",
     "README.md",
+    "sections/radiometry.md",
+    "sections/spatial.md",
+    "sections/search.md",
+    "sections/classification.md",
     "radiometry/limits.csv",
     "radiometry/summary.json",
     "spatial/summary.json",
@@ -197,8 +201,9 @@ def test_missing_gsd_and_readme_quote_stop_the_build(small):
     rec = json.loads((small / "recommendation.json").read_text())
     rec.pop("spatial", None)
     (small / "recommendation.json").write_text(json.dumps(rec))
-    readme = (small / "README.md").read_text()
-    (small / "README.md").write_text(
+    page = small / "sections" / "radiometry.md"
+    readme = page.read_text()
+    page.write_text(
         readme + "\n## Radiometry (x)\n\nDetection limits 5e-8 to 2e-7 W\n"
         if "Detection limits" not in readme
         else readme.replace("Detection limits ", "Detection limits 9", 1)

@@ -52,18 +52,19 @@ class BandMeasurement:
     grid_nm: tuple[float, float]
     rows: ScenarioTable | None = dataclasses.field(default=None, repr=False)
 
+    def _table(self, what: str) -> ScenarioTable:
+        if self.rows is None:
+            raise ValueError(f"{what}: this measurement has no rows (use measure).")
+        return self.rows
+
     def labels(self, level) -> np.ndarray:
         """Type of each row at `level` (`"level1"`/`"level2"`), `(n,)`."""
-        if self.rows is None:
-            raise ValueError("labels: this measurement has no rows (use measure).")
-        return self.rows.labels(level)
+        return self._table("labels").labels(level)
 
     @property
     def lamp(self) -> np.ndarray:
         """Lamp index of each row, `(n,)` (into `rows.lamp_ids`)."""
-        if self.rows is None:
-            raise ValueError("lamp: this measurement has no rows (use measure).")
-        return self.rows.lamp
+        return self._table("lamp").lamp
 
 
 def _response_on(bands, wavelength_nm) -> Array:

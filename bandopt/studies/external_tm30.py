@@ -239,13 +239,23 @@ def figure(summary: dict, path: Path) -> None:
 
 
 def lamp_files(lib, keep: list[int], folder: Path) -> list[str]:
-    """Write the measured part (finite values, 380-780 nm) of each lamp
-    `keep` of `lib` as `folder/<id>.csv` (`wavelength_nm, relative_power`),
-    the file a user gives `bandopt evaluate --lamps`; their paths."""
+    """Write each lamp `keep` of `lib` (read with `extend_nir=False`) as the
+    file a user gives `bandopt evaluate --lamps`, `folder/<id>.csv`
+    (`wavelength_nm, relative_power`): its measured values over the source
+    file's range (`source_range_nm`, 380-780 nm). Where the library cut the
+    source's trailing zeros as the end of the measurement (`cut_reason`
+    "zeros": values <= 1e-5 of the peak), they are written as 0, as the
+    source file holds them: a user's file is not cut. Their paths."""
     files = []
     for i in keep:
-        r, v = lib.records[i], lib.values[i]
-        ok = np.isfinite(v)  # the measured 380-780 nm part
+        r, v = lib.records[i], np.asarray(lib.values[i], float)
+        lo, hi = r.source_range_nm or r.measured_range_nm
+        span = (lib.wavelength_nm >= lo) & (lib.wavelength_nm <= hi)
+        zeros = (r.cut_reason or "").startswith("zeros")
+        after = lib.wavelength_nm > r.measured_range_nm[1]
+        cut = span & ~np.isfinite(v) & after & zeros
+        v = np.where(cut, 0.0, v)  # the source's zeros after the measured end
+        ok = span & np.isfinite(v)
         path = folder / f"{r.id}.csv"
         with path.open("w", newline="") as fh:
             w = csv.writer(fh)
