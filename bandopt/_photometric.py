@@ -117,6 +117,15 @@ def _check_angles(values, label, line, what, lo, hi):
     return a
 
 
+def _read_angles(t, n: int, what: str, label: str, hi: float):
+    """The next `n` numbers of token reader `t`, angles called `what` (an
+    error names "`what` k"), checked by `_check_angles` within [0, `hi`]
+    [deg]; and the line they start on."""
+    line = t.line()
+    values = [t.number(f"{what} {k + 1}") for k in range(n)]
+    return _check_angles(values, label, line, f"{what}s", 0.0, hi), line
+
+
 def _check_intensity(values, label, line):
     a = np.asarray(values, float)
     if np.any(a < 0):
@@ -302,24 +311,8 @@ def read_ies(path) -> IntensityTable:
             f"{label}: line {line_nv}: need >= 2 vertical and >= 1 horizontal angles, "
             f"got {nv} and {nh}."
         )
-    line_v = t.line()
-    v = _check_angles(
-        [t.number(f"vertical angle {k + 1}") for k in range(nv)],
-        label,
-        line_v,
-        "vertical angles",
-        0.0,
-        180.0,
-    )
-    line_h = t.line()
-    h = _check_angles(
-        [t.number(f"horizontal angle {k + 1}") for k in range(nh)],
-        label,
-        line_h,
-        "horizontal angles",
-        0.0,
-        360.0,
-    )
+    v, _ = _read_angles(t, nv, "vertical angle", label, 180.0)
+    h, line_h = _read_angles(t, nh, "horizontal angle", label, 360.0)
     line_c = t.line()
     cand = [t.number(f"candela value {k + 1}") for k in range(nv * nh)]
     cand = _check_intensity(cand, label, line_c).reshape(nh, nv) * mult
