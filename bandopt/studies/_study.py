@@ -18,7 +18,7 @@ import numpy as np
 from .. import inversion as inv_mod
 from ..folds import class_balanced_weights
 from ..search import get_context
-from ._text import by_intervals, held_out_by_class, held_out_overall
+from ._text import by_intervals, held_out
 from ._units import (
     band_set,
     keep_unit,
@@ -276,10 +276,7 @@ def run(study: Study, argv=None) -> int:
             recs = unseen_records(ctx0, rec_bands, label)
             for tag, rs in by_intervals(recs).items():
                 key = label if tag in (None, "narrowest") else f"{label} ({tag})"
-                unseen[key] = {
-                    "by_class": held_out_by_class(rs),
-                    "overall": held_out_overall(rs),
-                }
+                unseen[key] = held_out(rs)
             say(f"unseen types, {label}: {time.time() - t0:.0f} s")
     summary = {
         "partitions": args.partitions,

@@ -155,6 +155,12 @@ def held_out_overall(recs) -> dict:
     return res
 
 
+def held_out(recs) -> dict:
+    """An unseen-types entry of held-out-class records `recs`: `by_class`
+    (`held_out_by_class`) and `overall` (`held_out_overall`)."""
+    return {"by_class": held_out_by_class(recs), "overall": held_out_overall(recs)}
+
+
 def row_line(r: dict, surface: bool = True) -> str:
     """A summary row as a README table line: band set, surface (optional),
     estimator, MAE ± SD per metric, coverage per metric, level-1 right."""

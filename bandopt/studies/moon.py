@@ -36,12 +36,7 @@ from ..provenance import write_manifest
 from ..results import update_readme_section
 from ..search import PRESETS, get_context
 from ._study import unseen_records
-from ._text import (
-    diff_cells,
-    held_out_by_class,
-    held_out_overall,
-    unseen_lines,
-)
+from ._text import diff_cells, held_out, unseen_lines
 from ._units import band_set
 
 
@@ -220,10 +215,7 @@ def run(argv=None) -> int:
     ctx = get_context("search", None, 0, "auto")
     for label in UNSEEN:
         recs = unseen_records(ctx, band_set("recommended"), label)
-        unseen[label] = {
-            "by_class": held_out_by_class(recs),
-            "overall": held_out_overall(recs),
-        }
+        unseen[label] = held_out(recs)
         log(f"unseen types, {label}: {time.time() - t0:.0f} s")
     summary = {
         "partitions": args.partitions,
