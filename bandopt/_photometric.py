@@ -57,6 +57,24 @@ class IntensityTable:
     source: str
 
 
+def _to_number(tok: str, label: str, line: int, what: str, integer: bool):
+    """`tok` as a finite number (an `int` with `integer`); a malformed one
+    raises `ValueError` naming file `label`, `line` and the field `what`."""
+    try:
+        value = float(tok)
+    except ValueError:
+        raise ValueError(
+            f"{label}: line {line}: {what}: expected a number, got {tok!r}."
+        ) from None
+    if not np.isfinite(value):
+        raise ValueError(f"{label}: line {line}: {what}: not finite ({tok!r}).")
+    if integer and value != int(value):
+        raise ValueError(
+            f"{label}: line {line}: {what}: expected an integer, got {tok!r}."
+        )
+    return int(value) if integer else value
+
+
 class _Tokens:
     """Numbers of a text with the line each came from (1-based)."""
 
@@ -77,21 +95,7 @@ class _Tokens:
             )
         tok, line = self.items[self.pos]
         self.pos += 1
-        try:
-            value = float(tok)
-        except ValueError:
-            raise ValueError(
-                f"{self.label}: line {line}: {what}: expected a number, got {tok!r}."
-            ) from None
-        if not np.isfinite(value):
-            raise ValueError(
-                f"{self.label}: line {line}: {what}: not finite ({tok!r})."
-            )
-        if integer and value != int(value):
-            raise ValueError(
-                f"{self.label}: line {line}: {what}: expected an integer, got {tok!r}."
-            )
-        return int(value) if integer else value
+        return _to_number(tok, self.label, line, what, integer)
 
     def line(self) -> int:
         return self.items[min(self.pos, len(self.items) - 1)][1] if self.items else 1
@@ -180,19 +184,7 @@ def read_ldt(path) -> IntensityTable:
         if n > len(lines):
             raise ValueError(f"{label}: line {n}: file ends before {what}.")
         tok = lines[n - 1].strip().replace(",", ".")
-        try:
-            v = float(tok)
-        except ValueError:
-            raise ValueError(
-                f"{label}: line {n}: {what}: expected a number, got {tok!r}."
-            ) from None
-        if not np.isfinite(v):
-            raise ValueError(f"{label}: line {n}: {what}: not finite ({tok!r}).")
-        if integer and v != int(v):
-            raise ValueError(
-                f"{label}: line {n}: {what}: expected an integer, got {tok!r}."
-            )
-        return int(v) if integer else v
+        return _to_number(tok, label, n, what, integer)
 
     isym = field(3, "symmetry indicator Isym", integer=True)
     if isym not in (0, 1, 2, 3, 4):
