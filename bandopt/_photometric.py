@@ -57,6 +57,24 @@ class IntensityTable:
     source: str
 
 
+def _to_number(tok: str, label: str, line: int, what: str, integer: bool):
+    """`tok` as a finite number (an `int` with `integer`); a malformed one
+    raises `ValueError` naming file `label`, `line` and the field `what`."""
+    try:
+        value = float(tok)
+    except ValueError:
+        raise ValueError(
+            f"{label}: line {line}: {what}: expected a number, got {tok!r}."
+        ) from None
+    if not np.isfinite(value):
+        raise ValueError(f"{label}: line {line}: {what}: not finite ({tok!r}).")
+    if integer and value != int(value):
+        raise ValueError(
+            f"{label}: line {line}: {what}: expected an integer, got {tok!r}."
+        )
+    return int(value) if integer else value
+
+
 class _Tokens:
     """Numbers of a text with the line each came from (1-based)."""
 
@@ -77,21 +95,7 @@ class _Tokens:
             )
         tok, line = self.items[self.pos]
         self.pos += 1
-        try:
-            value = float(tok)
-        except ValueError:
-            raise ValueError(
-                f"{self.label}: line {line}: {what}: expected a number, got {tok!r}."
-            ) from None
-        if not np.isfinite(value):
-            raise ValueError(
-                f"{self.label}: line {line}: {what}: not finite ({tok!r})."
-            )
-        if integer and value != int(value):
-            raise ValueError(
-                f"{self.label}: line {line}: {what}: expected an integer, got {tok!r}."
-            )
-        return int(value) if integer else value
+        return _to_number(tok, self.label, line, what, integer)
 
     def line(self) -> int:
         return self.items[min(self.pos, len(self.items) - 1)][1] if self.items else 1
@@ -115,6 +119,15 @@ def _check_angles(values, label, line, what, lo, hi):
             f"[{lo:g}, {hi:g}], got {a[:6].tolist()}{'...' if a.size > 6 else ''}."
         )
     return a
+
+
+def _read_angles(t, n: int, what: str, label: str, hi: float):
+    """The next `n` numbers of token reader `t`, angles called `what` (an
+    error names "`what` k"), checked by `_check_angles` within [0, `hi`]
+    [deg]; and the line they start on."""
+    line = t.line()
+    values = [t.number(f"{what} {k + 1}") for k in range(n)]
+    return _check_angles(values, label, line, f"{what}s", 0.0, hi), line
 
 
 def _check_intensity(values, label, line):
@@ -171,19 +184,7 @@ def read_ldt(path) -> IntensityTable:
         if n > len(lines):
             raise ValueError(f"{label}: line {n}: file ends before {what}.")
         tok = lines[n - 1].strip().replace(",", ".")
-        try:
-            v = float(tok)
-        except ValueError:
-            raise ValueError(
-                f"{label}: line {n}: {what}: expected a number, got {tok!r}."
-            ) from None
-        if not np.isfinite(v):
-            raise ValueError(f"{label}: line {n}: {what}: not finite ({tok!r}).")
-        if integer and v != int(v):
-            raise ValueError(
-                f"{label}: line {n}: {what}: expected an integer, got {tok!r}."
-            )
-        return int(v) if integer else v
+        return _to_number(tok, label, n, what, integer)
 
     isym = field(3, "symmetry indicator Isym", integer=True)
     if isym not in (0, 1, 2, 3, 4):
@@ -302,24 +303,8 @@ def read_ies(path) -> IntensityTable:
             f"{label}: line {line_nv}: need >= 2 vertical and >= 1 horizontal angles, "
             f"got {nv} and {nh}."
         )
-    line_v = t.line()
-    v = _check_angles(
-        [t.number(f"vertical angle {k + 1}") for k in range(nv)],
-        label,
-        line_v,
-        "vertical angles",
-        0.0,
-        180.0,
-    )
-    line_h = t.line()
-    h = _check_angles(
-        [t.number(f"horizontal angle {k + 1}") for k in range(nh)],
-        label,
-        line_h,
-        "horizontal angles",
-        0.0,
-        360.0,
-    )
+    v, _ = _read_angles(t, nv, "vertical angle", label, 180.0)
+    h, line_h = _read_angles(t, nh, "horizontal angle", label, 360.0)
     line_c = t.line()
     cand = [t.number(f"candela value {k + 1}") for k in range(nv * nh)]
     cand = _check_intensity(cand, label, line_c).reshape(nh, nv) * mult

@@ -15,22 +15,11 @@ Writes results/bench/forward.json (+ manifest.json beside it).
 
 import argparse
 import json
-import time
 from pathlib import Path
 
 import numpy as np
 
-
-def _timeit(fn, repeat=3):
-    fn()  # warm-up (compilation)
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        if hasattr(out, "block_until_ready"):
-            out.block_until_ready()
-        best = min(best, time.perf_counter() - t0)
-    return best
+from bandopt.timing import best_time
 
 
 BANDS = dict(
@@ -72,9 +61,9 @@ def speed(quick: bool) -> dict:
     n_scen = scen.n_lamp_scenes
 
     run = jax.jit(lambda f, wts: lamp_scenes(band_terms(f, wts)))
-    t_jax = _timeit(lambda: run(f, wts))
+    t_jax = best_time(lambda: run(f, wts))
     contract = jax.jit(lambda f, wts: band_terms(f, wts).lamp_surface)
-    t_contract = _timeit(lambda: contract(f, wts))
+    t_contract = best_time(lambda: contract(f, wts))
 
     # Multiply-adds of the dominant contraction lsab = lw . (sw * abw): l*s*a*b*w.
     macs = l * s * a * b * w.size
@@ -82,13 +71,13 @@ def speed(quick: bool) -> dict:
         np.asarray(x)
         for x in (f.lamp, f.reflectance / np.pi, f.t_up[:, None, :] * wts[None])
     )
-    t_np_einsum = _timeit(
+    t_np_einsum = best_time(
         lambda: np.einsum("lw,sw,abw->lsab", lamp, refl, tw, optimize=True), repeat=2
     )
     rhs = np.ascontiguousarray(
         (refl[:, None, None, :] * tw[None]).reshape(-1, w.size).T
     )
-    t_matmul = _timeit(lambda: lamp @ rhs, repeat=3)
+    t_matmul = best_time(lambda: lamp @ rhs, repeat=3)
 
     # (b) materialise the spectral array for a chunk of scenarios, then sum.
     wn = np.asarray(wts)
@@ -110,7 +99,7 @@ def speed(quick: bool) -> dict:
         ]
         return np.einsum("samcw,bw->samcb", spec, wn, optimize=True)
 
-    t_mat = _timeit(materialised, repeat=1)
+    t_mat = best_time(materialised, repeat=1)
     n_chunk = s * a * m * c
     return {
         "scenario_set": {
@@ -195,7 +184,7 @@ def grid_error(quick: bool) -> dict:
             else:
                 f, resp = scen.factors, bands.response(scen.factors.wavelength_nm)
             wts = band_weights(resp, f.wavelength_nm)
-            t = _timeit(lambda f=f, wts=wts: run(f, wts), repeat=5)
+            t = best_time(lambda f=f, wts=wts: run(f, wts), repeat=5)
             val = np.asarray(run(f, wts))
             if ref is None:
                 ref = val

@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from bandopt.timing import best_time
+
 
 METRIC_NOISE = ((0.01, 0.03), (0.03, 0.001), (0.03, 0.01))
 """(σ_rel, floor) of LER, G and CCT in the per-metric timing (typical
@@ -39,16 +41,6 @@ choices of the per-metric inversion on our bands' folds, `make study
 NAME=estimate-noise`)."""
 TYPES_NOISE = (0.03, 0.003)
 """(σ_rel, floor) of the types and flag in the per-metric timing."""
-
-
-def _best(fn, repeat=3):
-    fn()
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def main(argv=None) -> int:
@@ -85,9 +77,9 @@ def main(argv=None) -> int:
     t_fit_ridge = time.perf_counter() - t0
     n = min(rad.shape[0], 512 if args.quick else 4096)
     pix = rad[:n]
-    t_inv = _best(lambda: inv.predict(pix))
+    t_inv = best_time(lambda: inv.predict(pix))
     x = jnp.asarray(pix)
-    t_ridge = _best(lambda: np.asarray(ridge.predict(x)))
+    t_ridge = best_time(lambda: np.asarray(ridge.predict(x)))
     # the same inversion with same-class blends in its prior (`mixture_lamps`,
     # the default of `bandopt evaluate`): time grows with the prior's size
     lamps, always, _, _ = inv_mod.context_setup(ctx)
@@ -100,11 +92,11 @@ def main(argv=None) -> int:
         inv.surface_mode,
         inv.sigma_rel,
     )
-    t_mix = _best(lambda: inv_mix.predict(pix))
+    t_mix = best_time(lambda: inv_mix.predict(pix))
     # told each pixel's Moon brightness, as `bandopt evaluate` is
     moon = inv_mod.context_moon(ctx)[:n]
-    t_told = _best(lambda: inv.predict(pix, moon=moon))
-    t_mix_told = _best(lambda: inv_mix.predict(pix, moon=moon))
+    t_told = best_time(lambda: inv.predict(pix, moon=moon))
+    t_mix_told = best_time(lambda: inv_mix.predict(pix, moon=moon))
     # each metric under its own band-error model (`bandopt evaluate --sigma
     # per-metric`): three distinct (σ_rel, floor) models and the types' one,
     # as chosen on the folds of `make study NAME=estimate-noise` (METRIC_NOISE); one
@@ -117,8 +109,8 @@ def main(argv=None) -> int:
         metric_floor=tuple(x[1] for x in METRIC_NOISE),
     )
     inv_joint = dataclasses.replace(inv_mix, sigma_rel=0.03)
-    t_joint_told = _best(lambda: inv_joint.predict(pix, moon=moon))
-    t_metric_told = _best(lambda: inv_metric.predict(pix, moon=moon))
+    t_joint_told = best_time(lambda: inv_joint.predict(pix, moon=moon))
+    t_metric_told = best_time(lambda: inv_metric.predict(pix, moon=moon))
     # `bandopt evaluate`'s whole prior: also the library's modelled
     # incandescent spectra (`--planck on`) and shifted copies of the direct
     # LEDs (`--peak-shifts on`)
@@ -135,13 +127,13 @@ def main(argv=None) -> int:
     inv_default = dataclasses.replace(
         inv_metric, prior=built.prior, design=built.design
     )
-    t_default = _best(lambda: inv_default.predict(pix, moon=moon))
+    t_default = best_time(lambda: inv_default.predict(pix, moon=moon))
     # and its `unexplained` test: each pixel's misfit under every inner fold's
     # prior too (`Inversion.known_type_p_value`; the folds of the fit above)
     inv_flagged = dataclasses.replace(
         inv_default, flag_folds=inv.flag_folds, flag_noise=inv.flag_noise
     )
-    t_flagged = _best(lambda: inv_flagged.predict(pix, moon=moon))
+    t_flagged = best_time(lambda: inv_flagged.predict(pix, moon=moon))
     # the library-free direct estimate (`bandopt evaluate --estimator direct`)
     # needs contiguous bands: 26 x 20 nm, surface known, against the ridge on
     # the same bands and pixels (its JSON-ready rows, as evaluate makes them)
@@ -151,10 +143,10 @@ def main(argv=None) -> int:
     rad26 = ctx.radiance(c26)
     direct = fit_direct(ctx, c26, "class")
     refl = context_reflectance(ctx, "class")[:n]
-    t_direct = _best(lambda: direct.rows(rad26[:n], inv.conditions, refl, moon))
+    t_direct = best_time(lambda: direct.rows(rad26[:n], inv.conditions, refl, moon))
     ridge26 = fit_estimator(rad26, ctx.table, s.train, s.inner)
     x26 = jnp.asarray(rad26[:n])
-    t_ridge26 = _best(lambda: np.asarray(ridge26.predict(x26)))
+    t_ridge26 = best_time(lambda: np.asarray(ridge26.predict(x26)))
     out = {
         "bands": bands.name,
         "n_bands": len(bands.names),

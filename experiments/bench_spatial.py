@@ -28,15 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-
-def _time(fn, repeat=3):
-    fn()  # warm-up (compilation)
-    best = math.inf
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t)
-    return best
+from bandopt.timing import best_time
 
 
 def analytic_vs_mc(quick: bool) -> dict:
@@ -70,7 +62,7 @@ def analytic_vs_mc(quick: bool) -> dict:
             e = sp.illuminance_images(lamps, grid, cull_fraction=0.0)
             return sp.block_mean(np.asarray(e)[0], s) * rho / math.pi / norm
 
-        t = _time(run)
+        t = best_time(run)
         err = float(np.sqrt(np.mean(((run() - ref) / ref) ** 2)))
         analytic.append({"supersample": s, "seconds": t, "rms_rel_error": err})
 
@@ -152,7 +144,7 @@ def culling(quick: bool) -> dict:
                     lamps, grid, cull_fraction=f
                 ).block_until_ready()
 
-            row[f"{label}_s"] = _time(run, repeat=2)
+            row[f"{label}_s"] = best_time(run, repeat=2)
             img = np.asarray(run()).sum(0)
             if ref is None:
                 ref = img

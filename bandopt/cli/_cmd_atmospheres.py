@@ -1,6 +1,5 @@
 """`bandopt atmospheres`: the shipped 6S transmittance and path-reflectance tables."""
 
-
 SHOW_NM = (400.0, 450.0, 550.0, 650.0, 760.0, 865.0, 940.0, 1020.0)
 
 
@@ -56,6 +55,7 @@ def plot(path: str) -> None:
     import numpy as np
 
     from ..datasets import atmosphere as atm
+    from ._plots import save_figure
 
     wl = np.arange(350.0, 1100.1, 2.5)
     base = ("midlatitude_summer", "urban", 23.0)
@@ -111,9 +111,7 @@ def plot(path: str) -> None:
         f"6S tables ({info['versions']['sixs']}, Py6S {info['versions']['py6s']}): "
         "one-way total transmittance and moonlight path reflectance"
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_figure(fig, path, 120)
 
 
 def run(args) -> int:

@@ -107,6 +107,8 @@ def _plot(lib, rows, path):
     import matplotlib.pyplot as plt
     import numpy as np
 
+    from ._plots import save_figure
+
     groups = [g for g in dict.fromkeys(r["level2"] or "excluded" for r in rows)]
     n = len(groups)
     cols = 3
@@ -129,9 +131,7 @@ def _plot(lib, rows, path):
     fig.suptitle(
         "bandopt lamp library (peak-normalised; dotted: 780 nm, extension beyond)"
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, 110)
 
 
 def run(args) -> int:

@@ -297,6 +297,8 @@ def _plot(path, obs, truth, title, band_names=()):
     import matplotlib.pyplot as plt
     from matplotlib.colors import PowerNorm
 
+    from ._plots import save_figure
+
     g = obs.grid
     ext = (g.x0_m, g.x0_m + g.nx * g.dx_m, g.y0_m, g.y0_m + g.ny * g.dx_m)
     fig, ax = plt.subplots(figsize=(11, 10 * g.ny / max(g.nx, 1) + 1.6))
@@ -338,6 +340,4 @@ def _plot(path, obs, truth, title, band_names=()):
         fontsize=8,
         frameon=False,
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, 110)

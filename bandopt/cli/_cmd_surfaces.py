@@ -70,6 +70,7 @@ def _plot(path: str, percentiles: tuple[float, float]) -> None:
     import numpy as np
 
     from ..datasets.surfaces import RANGE_NM, SURFACE_TYPES, surface
+    from ._plots import save_figure
 
     grid = np.arange(RANGE_NM[0], RANGE_NM[1] + 0.5, 2.0)
     ncol = 4
@@ -99,9 +100,7 @@ def _plot(path: str, percentiles: tuple[float, float]) -> None:
         "percentile band (grey: extrapolated)",
         fontsize=10,
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_figure(fig, path, 120)
 
 
 def run(args) -> int:

@@ -1,5 +1,5 @@
 """Figure helpers shared by the commands: colours that match a band's
-wavelength, and legends that stay off the data."""
+wavelength, legends that stay off the data, and saving a finished figure."""
 
 import numpy as np
 
@@ -52,3 +52,13 @@ def band_colour(centre_nm: float, fwhm_nm: float, name: str = ""):
 def legend_outside(ax, **kw) -> None:
     """A legend to the right of the axes (never over the data)."""
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, **kw)
+
+
+def save_figure(fig, path, dpi: int) -> None:
+    """Lay `fig` out (`tight_layout`), write it to `path` at `dpi` and close
+    it."""
+    import matplotlib.pyplot as plt  # plotting only: start-up time
+
+    fig.tight_layout()
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)

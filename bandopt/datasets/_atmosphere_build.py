@@ -96,6 +96,36 @@ def _grids(quick: bool) -> dict:
     }
 
 
+def _job(kind, atmosphere, aerosol, visibility_km, sun_zen, view_zen, azimuth, wl):
+    """One 6S job: `kind`, atmosphere, aerosol model, visibility [km], Sun (or
+    Moon) and view zenith [deg], relative azimuth [deg] and wavelengths [nm]."""
+    return dict(
+        kind=kind,
+        atmosphere=atmosphere,
+        aerosol=aerosol,
+        visibility_km=visibility_km,
+        sun_zenith_deg=sun_zen,
+        view_zenith_deg=view_zen,
+        relative_azimuth_deg=azimuth,
+        wavelength_nm=[float(w) for w in wl],
+    )
+
+
+def _offnadir_job(kind, atmosphere, aerosol, visibility_km, moon_zen, g):
+    """A `_job` in the off-nadir geometry (view zenith and relative azimuth
+    fixed, Moon at `moon_zen` [deg]) on grid `g`'s off-nadir wavelengths."""
+    return _job(
+        kind,
+        atmosphere,
+        aerosol,
+        visibility_km,
+        moon_zen,
+        OFFNADIR_VIEW_ZENITH_DEG,
+        OFFNADIR_RELATIVE_AZIMUTH_DEG,
+        g["offnadir_wavelength_nm"],
+    )
+
+
 def _jobs(g: dict) -> list[dict]:
     jobs = []
     check_wl = [w for w in (400.0, 550.0, 760.0, 940.0) if g["wavelength_nm"][0] <= w]
@@ -115,22 +145,12 @@ def _jobs(g: dict) -> list[dict]:
             wavelength_nm=check_wl,
         )
     )
+    wl = g["wavelength_nm"]
     for atm in g["atmospheres"]:
         for aer in g["aerosols"]:
             for vis in g["visibilities_km"]:
                 for z in g["zenith_deg"]:
-                    jobs.append(
-                        dict(
-                            kind="fast",
-                            atmosphere=atm,
-                            aerosol=aer,
-                            visibility_km=vis,
-                            sun_zenith_deg=0.0,
-                            view_zenith_deg=float(z),
-                            relative_azimuth_deg=0.0,
-                            wavelength_nm=[float(w) for w in g["wavelength_nm"]],
-                        )
-                    )
+                    jobs.append(_job("fast", atm, aer, vis, 0.0, float(z), 0.0, wl))
     offnadir_atm = (
         OFFNADIR_ATMOSPHERE if OFFNADIR_ATMOSPHERE in g["atmospheres"] else a0
     )
@@ -138,33 +158,14 @@ def _jobs(g: dict) -> list[dict]:
         for vis in g["visibilities_km"]:
             for zm in g["offnadir_moon_zenith_deg"]:
                 jobs.append(
-                    dict(
-                        kind="offnadir",
-                        atmosphere=offnadir_atm,
-                        aerosol=aer,
-                        visibility_km=vis,
-                        sun_zenith_deg=float(zm),
-                        view_zenith_deg=OFFNADIR_VIEW_ZENITH_DEG,
-                        relative_azimuth_deg=OFFNADIR_RELATIVE_AZIMUTH_DEG,
-                        wavelength_nm=[float(w) for w in g["offnadir_wavelength_nm"]],
-                    )
+                    _offnadir_job("offnadir", offnadir_atm, aer, vis, float(zm), g)
                 )
     # one off-nadir job in another atmosphere: the scattering-only reflectance
     # must not depend on the atmosphere type
     other = [a for a in g["atmospheres"] if a != offnadir_atm]
     if other:
-        jobs.append(
-            dict(
-                kind="offnadircheck",
-                atmosphere=other[-1],
-                aerosol=r0,
-                visibility_km=v0,
-                sun_zenith_deg=float(g["offnadir_moon_zenith_deg"][-1]),
-                view_zenith_deg=OFFNADIR_VIEW_ZENITH_DEG,
-                relative_azimuth_deg=OFFNADIR_RELATIVE_AZIMUTH_DEG,
-                wavelength_nm=[float(w) for w in g["offnadir_wavelength_nm"]],
-            )
-        )
+        zm = float(g["offnadir_moon_zenith_deg"][-1])
+        jobs.append(_offnadir_job("offnadircheck", other[-1], r0, v0, zm, g))
     return jobs
 
 

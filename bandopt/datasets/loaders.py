@@ -252,6 +252,32 @@ def _parse_chunk(lines: list[tuple[int, str]], path) -> np.ndarray:
     )
 
 
+def _parse_rows(rows, path, reader: str) -> np.ndarray | None:
+    """(n, 2) floats of the numbered data lines `rows` (an iterator of
+    (line number, text)), parsed `CSV_CHUNK_ROWS` lines at a time so memory
+    grows with the numbers, not the text; None when there are none. More
+    than `MAX_CSV_ROWS` rows raise `ValueError` (`reader`: whose limit)."""
+    chunks: list[np.ndarray] = []
+    pending: list[tuple[int, str]] = []
+    n_rows = 0
+    for row in rows:
+        pending.append(row)
+        if len(pending) >= CSV_CHUNK_ROWS:
+            chunks.append(_parse_chunk(pending, path))
+            n_rows += len(pending)
+            pending = []
+            if n_rows > MAX_CSV_ROWS:
+                raise ValueError(
+                    f"{path}: more than {MAX_CSV_ROWS:,} rows (the limit of "
+                    f"{reader}); resample the spectrum first."
+                )
+    if pending:
+        chunks.append(_parse_chunk(pending, path))
+    if not chunks:
+        return None
+    return chunks[0] if len(chunks) == 1 else np.concatenate(chunks)
+
+
 def read_csv(
     path: str | Path,
     *,
@@ -269,39 +295,27 @@ def read_csv(
     """
     path = Path(path)
     kind = _unit_kind(unit, f"{path}: argument unit")
-    chunks: list[np.ndarray] = []
-    pending: list[tuple[int, str]] = []
-    n_rows = 0
-    first = True
+
+    def rows(fh):
+        first = True
+        for lineno, stripped in _lines(fh, path):
+            if not stripped or stripped.startswith("#"):
+                continue
+            if first:
+                first = False
+                try:
+                    [float(f) for f in _csv_fields(stripped)]
+                except ValueError:
+                    continue  # header
+            yield lineno, stripped
+
     with path.open(encoding="utf-8-sig", errors="strict") as fh:
         try:
-            for lineno, stripped in _lines(fh, path):
-                if not stripped or stripped.startswith("#"):
-                    continue
-                if first:
-                    first = False
-                    try:
-                        [float(f) for f in _csv_fields(stripped)]
-                    except ValueError:
-                        continue  # header
-                pending.append((lineno, stripped))
-                if len(pending) >= CSV_CHUNK_ROWS:
-                    chunks.append(_parse_chunk(pending, path))
-                    n_rows += len(pending)
-                    pending = []
-                    if n_rows > MAX_CSV_ROWS:
-                        raise ValueError(
-                            f"{path}: more than {MAX_CSV_ROWS:,} rows (the limit of "
-                            "the CSV reader); resample the spectrum first."
-                        )
+            data = _parse_rows(rows(fh), path, "the CSV reader")
         except UnicodeDecodeError as err:
             raise ValueError(f"{path}: not a UTF-8 text file ({err}).") from None
-    if pending:
-        chunks.append(_parse_chunk(pending, path))
-    if not chunks:
+    if data is None:
         raise ValueError(f"{path}: no data rows.")
-    data = chunks[0] if len(chunks) == 1 else np.concatenate(chunks)
-    del chunks
     w = np.ascontiguousarray(data[:, 0])
     v = np.ascontiguousarray(data[:, 1])
     del data
@@ -325,10 +339,9 @@ def read_prn(
     """
     path = Path(path)
     kind = None
-    chunks: list[np.ndarray] = []
-    pending: list[tuple[int, str]] = []
-    n_rows = 0
-    with path.open(errors="replace") as fh:
+
+    def rows(fh):
+        nonlocal kind
         for lineno, s in _lines(fh, path):
             if not s:
                 continue
@@ -340,27 +353,17 @@ def read_prn(
                     elif "ENER" in upper:
                         kind = "energy"
                 continue
-            pending.append((lineno, s))
-            if len(pending) >= CSV_CHUNK_ROWS:
-                chunks.append(_parse_chunk(pending, path))
-                n_rows += len(pending)
-                pending = []
-                if n_rows > MAX_CSV_ROWS:
-                    raise ValueError(
-                        f"{path}: more than {MAX_CSV_ROWS:,} rows (the limit of "
-                        "the spectrum readers); resample the spectrum first."
-                    )
-    if pending:
-        chunks.append(_parse_chunk(pending, path))
+            yield lineno, s
+
+    with path.open(errors="replace") as fh:
+        data = _parse_rows(rows(fh), path, "the spectrum readers")
     if kind is None:
         raise ValueError(
             f"{path}: header field REM has no unit (QNTM or ENER); cannot tell "
             "photon from energy units."
         )
-    if not chunks:
+    if data is None:
         raise ValueError(f"{path}: no data rows.")
-    data = chunks[0] if len(chunks) == 1 else np.concatenate(chunks)
-    del chunks
     data = data[data[:, 0] <= max_wavelength_nm]
     values = validate_spectrum(
         data[:, 0], data[:, 1], where=str(path), require_range_nm=require_range_nm

@@ -87,6 +87,16 @@ def _chi2(yn, w, p, q, beta=None):
     if q is None:
         return chi_a
     sqq, spq, sqy = dot(q, q), dot(p, q), dot(q, yn)
+    return jnp.maximum(_chi2_both(spp, spy, syy, sqq, spq, sqy, chi_a, tiny), 0.0)
+
+
+def _chi2_both(spp, spy, syy, sqq, spq, sqy, chi_a, tiny):
+    """Misfit of `y ≈ α p + β q` (α, β ≥ 0) from the weighted products
+    `Σ w p p`, `Σ w p y`, `Σ w y y`, `Σ w q q`, `Σ w p q`, `Σ w q y` and the
+    lamp-only misfit `chi_a`: the two-amplitude least squares where it is
+    well conditioned and both amplitudes are non-negative (and no worse),
+    else the better of lamp only and Moon only. Not clipped at 0; `tiny`
+    guards the denominators."""
     det = spp * sqq - spq**2
     ok = det > 1e-12 * jnp.maximum(spp * sqq, tiny)
     dsafe = jnp.where(ok, det, 1.0)
@@ -95,9 +105,8 @@ def _chi2(yn, w, p, q, beta=None):
     both = ok & (a2 >= 0) & (b2 >= 0)
     chi_ab = syy - a2 * spy - b2 * sqy
     b1 = jnp.maximum(sqy, 0.0) / jnp.maximum(sqq, tiny)
-    chi_b = syy - b1 * sqy
-    best = jnp.minimum(chi_a, chi_b)
-    return jnp.maximum(jnp.where(both, jnp.minimum(chi_ab, best), best), 0.0)
+    best = jnp.minimum(chi_a, syy - b1 * sqy)
+    return jnp.where(both, jnp.minimum(chi_ab, best), best)
 
 
 def _chi2_known(spp, spy, syy, sqq, spq, sqy, beta):
@@ -225,16 +234,7 @@ def _score_chunk_shared(y, p, qq, log_ps, log_pk, noise, moon_b=None, all_known=
             sqq = jnp.matmul(w, (qf * qf).T, precision=hi)[:, None, :]
             sqy = jnp.matmul(wy, qf.T, precision=hi)[:, None, :]
             spq = grid(jnp.matmul(w, pq.T, precision=hi))
-            det = spp * sqq - spq**2
-            ok = det > 1e-12 * jnp.maximum(spp * sqq, tiny)
-            dsafe = jnp.where(ok, det, 1.0)
-            a2 = (sqq * spy - spq * sqy) / dsafe
-            b2 = (spp * sqy - spq * spy) / dsafe
-            both = ok & (a2 >= 0) & (b2 >= 0)
-            chi_ab = syy - a2 * spy - b2 * sqy
-            b1 = jnp.maximum(sqy, 0.0) / jnp.maximum(sqq, tiny)
-            best = jnp.minimum(chi, syy - b1 * sqy)
-            chi = jnp.where(both, jnp.minimum(chi_ab, best), best)
+            chi = _chi2_both(spp, spy, syy, sqq, spq, sqy, chi, tiny)
             if moon_b is not None:  # known Moon amplitude per pixel (NaN: fitted)
                 is_known = jnp.isfinite(moon_b)[:, None, None]
                 mm = jnp.where(m[:, 0] > 0, m[:, 0], 1.0)

@@ -7,6 +7,7 @@ at the top of the report (`missing_summary`) is the one the sections filled.
 """
 
 import dataclasses
+import functools
 import html
 
 from ._html import esc, table
@@ -73,6 +74,21 @@ class Ctx:
             f"{esc(e.title)} (no <code>results/{esc(e.marker)}</code>)",
             f"not run yet; produce it with <code>{esc(e.command)}</code>",
         )
+
+
+def needs(key: str):
+    """Decorator of a section builder that reads experiment `key`'s files:
+    the section is `key`'s MISSING box (`Ctx.need`) while `key` has not run,
+    else the builder's HTML."""
+
+    def wrap(build):
+        @functools.wraps(build)
+        def section(ctx: Ctx) -> str:
+            return ctx.need(key) or build(ctx)
+
+        return section
+
+    return wrap
 
 
 def experiments_status(ctx: Ctx) -> str:

@@ -3,16 +3,14 @@ reference sensor, the error vs band count (with its figure) and the
 stability and Pareto figures, all read from `results/search/`.
 """
 
-from ._experiments import METRICS, UNITS, Ctx
+from ._experiments import METRICS, UNITS, Ctx, needs
 from ._html import esc, figure_png, table
 from ._source import Sources, pointer
 
 
+@needs("search")
 def comparison(ctx: Ctx) -> str:
     src = ctx.src
-    box = ctx.need("search")
-    if box:
-        return box
     C = "search/compare.json"
     comp = src.load(C)
     ours = comp["pareto"]["recommended"]
@@ -92,11 +90,9 @@ def _converged_cell(src: Sources, rel: str, ptr: str) -> str:
             + src.num(rel, ptr + "/convergence/designs"))
 
 
+@needs("search")
 def band_count(ctx: Ctx) -> str:
     src = ctx.src
-    box = ctx.need("search")
-    if box:
-        return box
     import matplotlib  # plotting only: start-up time
 
     matplotlib.use("Agg")
@@ -158,11 +154,9 @@ def band_count(ctx: Ctx) -> str:
     )
 
 
+@needs("search")
 def search_figures(ctx: Ctx) -> str:
     src = ctx.src
-    box = ctx.need("search")
-    if box:
-        return box
     P = "search/pareto.json"
     rows = []
     if src.exists(P):

@@ -4,16 +4,14 @@ the inversion estimator's interval coverage, each read only from its
 folder of `results/` (a MISSING box when the study has not run).
 """
 
-from ._experiments import Ctx
+from ._experiments import Ctx, needs
 from ._html import esc, table
 from ._source import missing_box, pointer
 
 
+@needs("classify")
 def classification(ctx: Ctx) -> str:
     src = ctx.src
-    box = ctx.need("classify")
-    if box:
-        return box
     K = "classify/summary.json"
     out = [
         "<p>The classification experiment searches its own band set (nested "
@@ -41,11 +39,9 @@ def classification(ctx: Ctx) -> str:
     return "".join(out)
 
 
+@needs("radiometry")
 def radiometry(ctx: Ctx) -> str:
     src = ctx.src
-    box = ctx.need("radiometry")
-    if box:
-        return box
     S = "radiometry/summary.json"
     L = "radiometry/limits.csv"
     out = [f"<p>Limit rule: {src.text(S, '/rule_text')}</p>"]
@@ -84,11 +80,9 @@ def radiometry(ctx: Ctx) -> str:
     return "".join(out)
 
 
+@needs("spatial")
 def spatial(ctx: Ctx) -> str:
     src = ctx.src
-    box = ctx.need("spatial")
-    if box:
-        return box
     S = "spatial/summary.json"
     summ = src.load(S)
     gsds = [str(int(g)) if float(g).is_integer() else str(g)
@@ -122,11 +116,9 @@ def spatial(ctx: Ctx) -> str:
     return "".join(out)
 
 
+@needs("overlap")
 def overlap(ctx: Ctx) -> str:
     src = ctx.src
-    box = ctx.need("overlap")
-    if box:
-        return box
     O = "spatial/overlap.json"
     rows = []
     for i, _ in enumerate(src.get(O, "/rows")):
@@ -161,11 +153,9 @@ def _find_coverage(obj, path=()):
             yield from _find_coverage(v, (*path, i))
 
 
+@needs("estimate")
 def inversion(ctx: Ctx) -> str:
     src = ctx.src
-    box = ctx.need("estimate")
-    if box:
-        return box
     folder = src.path("estimate")
     rows = []
     for f in sorted(folder.glob("*.json")):

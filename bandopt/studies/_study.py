@@ -9,7 +9,6 @@ figure, `manifest.json` and (default output only) its README section."""
 
 import dataclasses
 import functools
-import json
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -18,11 +17,16 @@ import numpy as np
 
 from .. import inversion as inv_mod
 from ..folds import class_balanced_weights
-from ..provenance import write_manifest
-from ..results import update_readme_section
 from ..search import get_context
-from ._text import by_intervals, held_out_by_class, held_out_overall
-from ._units import band_set, keep_unit, load_records, log, partition_args
+from ._text import by_intervals, held_out
+from ._units import (
+    band_set,
+    keep_unit,
+    load_records,
+    log,
+    partition_args,
+    write_outputs,
+)
 
 
 BAND_SETS = {
@@ -272,10 +276,7 @@ def run(study: Study, argv=None) -> int:
             recs = unseen_records(ctx0, rec_bands, label)
             for tag, rs in by_intervals(recs).items():
                 key = label if tag in (None, "narrowest") else f"{label} ({tag})"
-                unseen[key] = {
-                    "by_class": held_out_by_class(rs),
-                    "overall": held_out_overall(rs),
-                }
+                unseen[key] = held_out(rs)
             say(f"unseen types, {label}: {time.time() - t0:.0f} s")
     summary = {
         "partitions": args.partitions,
@@ -296,14 +297,15 @@ def run(study: Study, argv=None) -> int:
         "scored_lamps": "measured lamps only",
         "modelled_lamps_used": _planck_used(study),
     }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    (study.figure or figure)(summary, out / study.figure_name)
-    if args.out is None and study.readme is not None:
-        update_readme_section(study.name, study.readme(summary), heading=study.heading)
-    write_manifest(
+    return write_outputs(
         out,
+        summary,
+        [(study.figure or figure, study.figure_name)],
+        section=(study.name, study.readme, study.heading)
+        if args.out is None and study.readme is not None
+        else None,
         seed=0,
         config=manifest_config(study, args.partitions),
+        say=say,
+        t0=t0,
     )
-    say(f"done: {out} ({time.time() - t0:.0f} s)")
-    return 0

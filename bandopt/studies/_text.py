@@ -76,6 +76,35 @@ def where_lines(by_class) -> list[str]:
     ]
 
 
+def unseen_lines(unseen) -> list[str]:
+    """README lines per unseen-types run of `unseen` (label -> `overall` and
+    `by_class`): coverage of LER, G and CCT, level-1 type right, unexplained
+    and out-of-range counts, then `where_lines`."""
+    lines = []
+    for label, u in (unseen or {}).items():
+        o = u["overall"]
+        lines += [
+            "",
+            f"Unseen lamp types (recommended bands, `{label}`, partition 0; each "
+            "scored class held out in turn): coverage LER "
+            f"{o['LER_covered']:.2f}, G {o['G_covered']:.2f}, CCT "
+            f"{o['CCT_covered']:.2f}; level-1 type right {o['level1_correct']:.2f}; "
+            f"unexplained {o['unexplained']:.2f}; out of range {o['out_of_range']}.",
+        ]
+        lines += where_lines(u.get("by_class"))
+    return lines
+
+
+def base_paired_lines(paired, base: str, columns) -> list[str]:
+    """Table rows `| band set | differences |` of the `paired` rows compared
+    with `base` (`vs`), cells `diff_cells(p, columns)`."""
+    return [
+        f"| {p['band_set']} | " + " | ".join(diff_cells(p, columns)) + " |"
+        for p in paired
+        if p.get("vs") == base
+    ]
+
+
 def held_out_by_class(recs) -> dict:
     """Per held-out class: lamp count and the mean of each of the summary's
     columns a held-out class has (`inversion.SUMMARY_COLUMNS` but level-2,
@@ -124,6 +153,12 @@ def held_out_overall(recs) -> dict:
     )
     res["out_of_range"] = int(sum(row["out_of_range"] for row in bc.values()))
     return res
+
+
+def held_out(recs) -> dict:
+    """An unseen-types entry of held-out-class records `recs`: `by_class`
+    (`held_out_by_class`) and `overall` (`held_out_overall`)."""
+    return {"by_class": held_out_by_class(recs), "overall": held_out_overall(recs)}
 
 
 def row_line(r: dict, surface: bool = True) -> str:
@@ -262,14 +297,9 @@ def variant_text(
         "| width LER [lm/W] |",
         "|---|---|---|---|---|---|---|",
     ]
-    for p in summary["paired"]:
-        if p.get("vs") != base:
-            continue
-        lines.append(
-            f"| {p['band_set']} | "
-            + " | ".join(diff_cells(p, [(c, PAIRED_DIGITS[c]) for c in COLUMNS]))
-            + " |"
-        )
+    lines += base_paired_lines(
+        summary["paired"], base, [(c, PAIRED_DIGITS[c]) for c in COLUMNS]
+    )
     lines += reference_lines(
         [p for p in summary["paired"] if p.get("vs") != base],
         "Reference sensors minus recommended bands, same estimator:",

@@ -1,7 +1,7 @@
 """The units a study is made of and kept by: band sets by name, the
 records file a resumable run appends each finished (partition, band set)
-unit to, the command line every partitioned study shares, and its CSV
-tables."""
+unit to, the command line every partitioned study shares, its CSV tables
+and the outputs every study ends with (`write_outputs`)."""
 
 import argparse
 import csv
@@ -10,6 +10,8 @@ import sys
 import time
 from pathlib import Path
 
+from ..provenance import write_manifest
+from ..results import update_readme_section
 from ..sensor import BandSet
 from ..sensor.reference import resolve
 
@@ -123,3 +125,31 @@ def write_csv(path: Path, rows) -> None:
                     for k, v in r.items()
                 }
             )
+
+
+def write_outputs(
+    out: Path,
+    summary: dict,
+    figures,
+    *,
+    section: tuple | None,
+    seed,
+    config: dict,
+    say,
+    t0: float,
+) -> int:
+    """The outputs a study ends with: `summary.json`, each of `figures`
+    ((draw(summary, path), file name) pairs) into `out`, the study's page of
+    the results README when `section` is given ((name, readme, heading):
+    `update_readme_section` of `readme(summary)`; a default run),
+    `manifest.json` (`seed`, `config`), and the closing progress line via
+    `say` (`t0`: start time [s since the epoch]); returns the exit status 0."""
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    for draw, name in figures:
+        draw(summary, out / name)
+    if section is not None:
+        name, readme, heading = section
+        update_readme_section(name, readme(summary), heading=heading)
+    write_manifest(out, seed=seed, config=config)
+    say(f"done: {out} ({time.time() - t0:.0f} s)")
+    return 0

@@ -64,7 +64,7 @@ from ._estimate_report import (
     readme_text as readme_text,
     spectra_figure as spectra_figure,
 )
-from ._text import held_out_by_class, held_out_overall
+from ._text import held_out
 from ._units import band_set, keep_unit, load_records, log as _log
 
 
@@ -265,12 +265,7 @@ def write_summary_csv(summary: list[dict], path: Path) -> None:
 def _unseen_entry(recs: list[dict], **extra) -> dict:
     """An `unseen_types.json` entry: the records, per held-out class and
     overall (`held_out_by_class`, `held_out_overall`), then `extra`."""
-    return {
-        "records": recs,
-        "by_class": held_out_by_class(recs),
-        "overall": held_out_overall(recs),
-        **extra,
-    }
+    return {"records": recs, **held_out(recs), **extra}
 
 
 def unseen_types(preset: str, band_sets, n_model: int) -> dict:

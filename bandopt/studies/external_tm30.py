@@ -45,8 +45,6 @@ from pathlib import Path
 import numpy as np
 
 from ..datasets.lamps import library
-from ..provenance import write_manifest
-from ..results import update_readme_section
 from ._external_tm30_scores import (
     BOOTSTRAP as BOOTSTRAP,
     CCT_NULL_K as CCT_NULL_K,
@@ -58,7 +56,7 @@ from ._external_tm30_scores import (
     paired as paired,
     summarise as summarise,
 )
-from ._units import CONTIGUOUS, RECOMMENDED, band_set, log as _log
+from ._units import CONTIGUOUS, RECOMMENDED, band_set, log as _log, write_outputs
 
 
 BAND_SETS = {
@@ -354,17 +352,15 @@ def run(argv=None) -> int:
         "modelled_lamps_note": "evaluate's prior holds the library's five modelled "
         "Planck spectra (its default); they train, never score",
     }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    figure(summary, out / "errors.png")
-    if args.out is None:
-        update_readme_section(
-            "external-tm30",
-            readme_text(summary),
-            heading="## External check: `bandopt evaluate` on",
-        )
-    write_manifest(
+    heading = "## External check: `bandopt evaluate` on"
+    return write_outputs(
         out,
+        summary,
+        [(figure, "errors.png")],
+        section=("external-tm30", readme_text, heading) if args.out is None else None,
         seed=SEED,
+        say=log,
+        t0=t0,
         config={
             "band_sets": BAND_SETS,
             "surface_known": {k: [b, *o] for k, (b, o) in SURFACE_KNOWN.items()},
@@ -375,8 +371,6 @@ def run(argv=None) -> int:
             "modelled_lamps_used": "evaluate's default Planck spectra (training)",
         },
     )
-    log(f"done: {out} ({time.time() - t0:.0f} s)")
-    return 0
 
 
 def _evaluate(bands: str, files: list[str], options=()) -> dict:

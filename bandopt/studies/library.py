@@ -39,19 +39,23 @@ Writes `records.jsonl` (one record per scored lamp; `scored`: "test" or
 `estimate-library` section of `results/README.md` (default output only).
 """
 
-import json
 import time
 from pathlib import Path
 
 import numpy as np
 
 from .. import inversion as inv_mod
-from ..provenance import write_manifest
-from ..results import update_readme_section
 from ..search import get_context
 from ._study import UNKNOWN_ONLY, figure
 from ._text import by_class, class_change_cells, diff_cells, fmt_cell, reference_lines
-from ._units import band_set, keep_unit, load_records, log as _log, partition_args
+from ._units import (
+    band_set,
+    keep_unit,
+    load_records,
+    log as _log,
+    partition_args,
+    write_outputs,
+)
 from .ablations.defaults import DEFAULT
 
 
@@ -472,14 +476,16 @@ def run(argv=None) -> int:
             f"({j + 1}/{len(units)} units, {time.time() - t0:.0f} s)"
         )
     summary = summarise(records, args.partitions)
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    figure(summary, out / "errors.png")
-    size_figure(summary, out / "library_size.png")
-    if args.out is None:
-        update_readme_section("estimate-library", readme_text(summary), heading=HEADING)
-    write_manifest(
+    return write_outputs(
         out,
+        summary,
+        [(figure, "errors.png"), (size_figure, "library_size.png")],
+        section=("estimate-library", readme_text, HEADING)
+        if args.out is None
+        else None,
         seed=0,
+        say=log,
+        t0=t0,
         config={
             "partitions": args.partitions,
             "study": "estimate-library",
@@ -495,5 +501,3 @@ def run(argv=None) -> int:
             "modelled_lamps_used": True,
         },
     )
-    log(f"done: {out} ({time.time() - t0:.0f} s)")
-    return 0

@@ -36,7 +36,7 @@ from ..provenance import write_manifest
 from ..results import update_readme_section
 from ..search import PRESETS, get_context
 from ._study import unseen_records
-from ._text import diff_cells, held_out_by_class, held_out_overall, where_lines
+from ._text import diff_cells, held_out, unseen_lines
 from ._units import band_set
 
 
@@ -145,17 +145,7 @@ def readme_text(summary: dict) -> str:
             )
             cells = diff_cells(p)
             lines.append(f"| {what} | {p['estimator']} | " + " | ".join(cells) + " |")
-    for label, u in (summary.get("unseen_types") or {}).items():
-        o = u["overall"]
-        lines += [
-            "",
-            f"Unseen lamp types (recommended bands, `{label}`, partition 0; each "
-            "scored class held out in turn): coverage LER "
-            f"{o['LER_covered']:.2f}, G {o['G_covered']:.2f}, CCT "
-            f"{o['CCT_covered']:.2f}; level-1 type right {o['level1_correct']:.2f}; "
-            f"unexplained {o['unexplained']:.2f}; out of range {o['out_of_range']}.",
-        ]
-        lines += where_lines(u.get("by_class"))
+    lines += unseen_lines(summary.get("unseen_types"))
     return "\n".join(lines) + "\n"
 
 
@@ -225,10 +215,7 @@ def run(argv=None) -> int:
     ctx = get_context("search", None, 0, "auto")
     for label in UNSEEN:
         recs = unseen_records(ctx, band_set("recommended"), label)
-        unseen[label] = {
-            "by_class": held_out_by_class(recs),
-            "overall": held_out_overall(recs),
-        }
+        unseen[label] = held_out(recs)
         log(f"unseen types, {label}: {time.time() - t0:.0f} s")
     summary = {
         "partitions": args.partitions,

@@ -45,8 +45,6 @@ import numpy as np
 from .. import inversion as inv_mod
 from ..datasets.lamps import library
 from ..datasets.nir import EXTENSION_START_NM
-from ..provenance import write_manifest
-from ..results import update_readme_section
 from ..search import get_context
 from ._ceiling import (
     BANDS_FEATURE as BANDS_FEATURE,
@@ -69,7 +67,7 @@ from ._ceiling import (
     physical_model_spectra as physical_model_spectra,
 )
 from ._ceiling_text import figure as figure, readme_text as readme_text
-from ._units import RECOMMENDED, band_set, log as _log
+from ._units import RECOMMENDED, band_set, log as _log, write_outputs
 
 
 OUT = "results/unseen_ceiling"
@@ -249,17 +247,15 @@ def run(argv=None) -> int:
         "modelled_lamps_note": "only in the `with_physical_models` variant, "
         "where they train and are never scored",
     }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    figure(summary, out / "ceiling.png")
-    if args.out is None:
-        update_readme_section(
-            "unseen-ceiling",
-            readme_text(summary),
-            heading="## Ceiling of the level-1 family of unseen lamp types",
-        )
-    write_manifest(
+    heading = "## Ceiling of the level-1 family of unseen lamp types"
+    return write_outputs(
         out,
+        summary,
+        [(figure, "ceiling.png")],
+        section=("unseen-ceiling", readme_text, heading) if args.out is None else None,
         seed=0,
+        say=log,
+        t0=t0,
         config={
             "resolutions_nm": list(RESOLUTIONS_NM),
             "features": list(FEATURES),
@@ -280,5 +276,3 @@ def run(argv=None) -> int:
             "modelled_lamps_used": "variant with_physical_models only (training)",
         },
     )
-    log(f"done: {out} ({time.time() - t0:.0f} s)")
-    return 0

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from .._study import UNKNOWN_ONLY, Study
-from .._text import diff_cells, fmt_cell
+from .._text import base_paired_lines, fmt_cell
 
 
 BASE, NARROW = "inversion-moon-mix-metric", "inversion-moon-mix-metric-narrow"
@@ -138,20 +138,12 @@ def readme_text(summary: dict) -> str:
         "LER | coverage G | coverage CCT |",
         "|---|---|---|---|---|---|---|",
     ]
-    for p in summary["paired"]:
-        if p.get("vs") != BASE:
-            continue
-        lines.append(
-            f"| {p['band_set']} | "
-            + " | ".join(
-                diff_cells(p, [(f"{m}_width", nd) for m, _, nd in METRIC_UNITS])
-            )
-            + " | "
-            + " | ".join(
-                diff_cells(p, [(f"{m}_covered", 2) for m, _, _ in METRIC_UNITS])
-            )
-            + " |"
-        )
+    lines += base_paired_lines(
+        summary["paired"],
+        BASE,
+        [(f"{m}_width", nd) for m, _, nd in METRIC_UNITS]
+        + [(f"{m}_covered", 2) for m, _, _ in METRIC_UNITS],
+    )
     by_width = (summary.get("extra") or {}).get("coverage_by_width") or {}
     if by_width:
         cells = "; ".join(

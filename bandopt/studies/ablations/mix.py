@@ -26,7 +26,7 @@ lamps only and never score.
 """
 
 from .._study import BAND_SETS, Study
-from .._text import diff_cells, rows_table, where_lines
+from .._text import diff_cells, rows_table, unseen_lines
 
 
 ESTIMATORS = ("inversion-moon", "inversion-moon-mix")
@@ -86,17 +86,7 @@ def readme_text(summary: dict) -> str:
             "evaluate`'s default, `--intervals any-type`, with the blends: "
             "`inversion-moon-mix-loco`); the estimates are the same.",
         ]
-    for label, u in unseen.items():
-        o = u["overall"]
-        lines += [
-            "",
-            f"Unseen lamp types (recommended bands, `{label}`, partition 0; each "
-            "scored class held out in turn): coverage LER "
-            f"{o['LER_covered']:.2f}, G {o['G_covered']:.2f}, CCT "
-            f"{o['CCT_covered']:.2f}; level-1 type right {o['level1_correct']:.2f}; "
-            f"unexplained {o['unexplained']:.2f}; out of range {o['out_of_range']}.",
-        ]
-        lines += where_lines(u.get("by_class"))
+    lines += unseen_lines(unseen)
     return "\n".join(lines) + "\n"
 
 
