@@ -15,6 +15,7 @@ class LampScore:
     """One estimator on one lamp's pixels (its scenes) in one outer fold.
 
     Who and where:
+
     - `estimator`, `surface` (surface-knowledge mode), `fold` (outer fold),
       `lamp` (library id), `level1`, `level2` (its true types).
     - `rows`: pixels scored; `out_of_range`: pixels with an estimate outside
@@ -27,15 +28,18 @@ class LampScore:
 
     Errors (mean |error| over the lamp's pixels; None where the lamp's true
     value has no meaning):
+
     - `LER` [lm/W], `G` [1], `CCT` [K] (a null CCT estimate counts as the far
       end of `CCT_RANGE_K`), `CCT_mired` [mired], `CCT_null_rate` [1].
 
     Intervals (inversion only; None otherwise or where the truth has no meaning):
+
     - `{LER,G,CCT}_covered`: fraction of pixels whose 90 % interval holds the
       truth [1]; `{LER,G,CCT}_width`: mean interval width [lm/W, 1, K];
       `CCT_width_mired` [mired].
 
     Types and fit (inversion only, else None):
+
     - `level1_correct`, `level2_correct`: fraction of pixels typed right [1];
       `unexplained`: fraction flagged as not explained by the prior [1];
       `sigma_rel`: the fit's relative model error [1]; `metric_noise`: the
