@@ -14,10 +14,6 @@ from pathlib import Path
 import numpy as np
 
 
-EVALS_PER_DIM = 60
-"""Same budget rule as the main job (experiments.search.EVALS_PER_DIM)."""
-
-
 def _best_of(fn, repeat=5):
     fn()
     times = []
@@ -265,6 +261,7 @@ def main(argv=None) -> int:
         print(f"wrote {path} (eval_rate)")
         return 0
     from bandopt.search import (
+        EVALS_PER_DIM,
         Space,
         get_context,
         global_search,
