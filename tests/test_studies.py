@@ -86,3 +86,22 @@ def test_a_tiny_study_runs_through_the_machinery_and_resumes(tmp_path):
     assert run(study, [*argv, "--resume"]) == 0  # nothing left to compute
     assert (tmp_path / "records.jsonl").read_text() == lines
     assert (tmp_path / "summary.json").read_bytes() == before
+
+
+def test_a_study_takes_its_variants_from_the_estimator_registry():
+    """Every study's variants are configurations of the registered inversion
+    (`estimators.variant`, the options `inversion.options_of` names); a
+    misspelt variant stops the study's configuration, naming it."""
+    from bandopt import inversion as inv_mod
+    from bandopt.estimators import InversionConfig, variant
+
+    for study in STUDIES.values():
+        for label in (*study.estimators, *study.unseen):
+            config = variant(label)
+            assert isinstance(config, InversionConfig)
+            opts = inv_mod.options_of(label)
+            for f in dataclasses.fields(opts):
+                assert getattr(config, f.name) == getattr(opts, f.name), label
+    study = next(iter(STUDIES.values()))
+    with pytest.raises(ValueError, match="inversion-moon-mixx"):
+        dataclasses.replace(study, estimators=("inversion-moon-mixx",))

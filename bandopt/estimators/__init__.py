@@ -13,6 +13,9 @@ estimators that do. `bandopt evaluate` and the studies take their
 estimators from here; `tests/test_estimators.py` checks every registered
 one against the contract (as scikit-learn's `estimator_checks` does).
 
+`variant(label)` is the inversion's configuration of a named variant (the
+studies' estimators).
+
 - `_contract`: `Estimates`, `Surface` and the protocols;
 - `_inversion`: the shipped physics-based inversion (`InversionConfig`,
   `fit_on_context`);
@@ -21,6 +24,7 @@ one against the contract (as scikit-learn's `estimator_checks` does).
 
 import dataclasses
 
+from ..inversion import options_of as inversion_options_of
 from ..names import CanonicalMapping
 from ._baselines import (
     DirectConfig as DirectConfig,
@@ -80,3 +84,15 @@ def configure(name: str, **options) -> "EstimatorConfig":
                 )
             )
     return ESTIMATORS[key](**options)
+
+
+def variant(label: str) -> InversionConfig:
+    """The shipped inversion's configuration with the options of a named
+    variant of it (`bandopt.inversion.LABELLED`, e.g.
+    `inversion-moon-mix-metric`; `-loco`: intervals calibrated on classes
+    held out in turn), the names the studies compare. An unknown name raises
+    `ValueError` listing the variants."""
+    opts = inversion_options_of(label)
+    return InversionConfig(
+        **{f.name: getattr(opts, f.name) for f in dataclasses.fields(opts)}
+    )

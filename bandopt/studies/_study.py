@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import inversion as inv_mod
+from ..estimators import variant
 from ..folds import class_balanced_weights
 from ..search import get_context
 from ._text import by_intervals, held_out
@@ -81,6 +82,14 @@ class Study:
     extra: Callable[[list], dict] | None = None
     preset: str = "search"
     atmospheres: str = "auto"
+
+    def __post_init__(self):
+        # every variant is the registry's, so a misspelt one stops here
+        for label in (*self.estimators, *self.unseen):
+            try:
+                variant(label)
+            except ValueError as exc:
+                raise ValueError(f"study {self.name!r}: {exc}") from None
 
 
 def figure(summary: dict, path: Path) -> None:
