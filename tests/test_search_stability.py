@@ -397,3 +397,32 @@ def test_study_task_on_a_dask_local_cluster(full_sweep, tmp_path):
     assert [s["labels_pred"] for s in a["scores"]] == [
         s["labels_pred"] for s in b["scores"]
     ]
+
+
+def test_the_paired_adam_loop_runs_on_optax_and_keeps_its_best_point(synth):
+    """The old loop kept for the solver pairing (`search._solvers`) is optax's
+    Adam: seeded, its reported loss is the loss at its reported point, never
+    above the loss at its own uniform starts, and its steps lower that loss."""
+    from bandopt.search._solvers import ADAM, adam_search
+
+    space = Space(1, min_fwhm_nm=20.0)
+    data = make_batch_data(
+        synth["toa"], synth["wl"], synth["table"], synth["res"], space
+    )
+    a = adam_search(data, space, alpha=0.0, seed=4)
+    b = adam_search(data, space, alpha=0.0, seed=4)
+    np.testing.assert_array_equal(a["u"], b["u"])
+    f = batched_loss(space, 0.0)
+    np.testing.assert_allclose(
+        np.asarray(f(data, jnp.asarray(a["u"][:, None, :])))[:, 0],
+        a["loss"],
+        rtol=1e-8,
+    )
+    n_r = len(synth["res"])
+    u0 = np.random.default_rng(4).uniform(
+        0.05, 0.95, size=(n_r, ADAM["restarts"], space.dim)
+    )
+    start = np.asarray(f(data, jnp.asarray(u0))).min(axis=1)
+    assert np.all(a["loss"] <= start)
+    assert np.all(a["loss"] < start - 1e-6)
+    assert a["n_evals"] == n_r * ADAM["restarts"] * (ADAM["steps"] + 1)
