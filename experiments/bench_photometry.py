@@ -26,7 +26,8 @@ CIE 015 lamps at 1 nm), `a L_i + b L_j` with a, b ~ U(0, 1), times a scale
   two `np.trapezoid` sums (colour has no G index). Extrapolated per spectrum.
 - luxpy: timed only if importable; it is not a dependency of bandopt.
 
-Every time is the best of `--repeats` runs after a warm-up, all in one process;
+Every time is the best of `--repeats` rounds after a warm-up, all in one process,
+the three batch methods interleaved within each round;
 the ratios (baseline time / bandopt time) are the result, not the absolute times.
 """
 
@@ -90,15 +91,18 @@ def _mixtures(base: np.ndarray, n: int, seed: int) -> np.ndarray:
     return scale * (a * base[i] + b * base[j])
 
 
-def _best_of(fn, repeats: int) -> tuple[float, list[float], object]:
-    """Warm-up call, then the best of `repeats` timed calls. [s]"""
-    out = fn()
-    runs = []
+def _interleaved(fns: dict, repeats: int) -> tuple[dict, dict]:
+    """Every function once as a warm-up, then `repeats` rounds timing each
+    once per round, so that a change of machine load hits them all alike.
+    Returns the timings per name [s] and each function's last output."""
+    outputs = {name: fn() for name, fn in fns.items()}
+    runs = {name: [] for name in fns}
     for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        runs.append(time.perf_counter() - t0)
-    return min(runs), runs, out
+        for name, fn in fns.items():
+            t0 = time.perf_counter()
+            outputs[name] = fn()
+            runs[name].append(time.perf_counter() - t0)
+    return runs, outputs
 
 
 def _numpy_baseline(wavelength_nm: np.ndarray, spectra: np.ndarray) -> dict:
@@ -273,15 +277,19 @@ def main(config: Config) -> dict:
     compiled = fn.lower(spectra).compile()
     compile_s = time.perf_counter() - t0
     device_spectra = jax.device_put(spectra)
-    jit_s, jit_runs, result = _best_of(
-        lambda: jax.block_until_ready(compiled(device_spectra)), config.repeats
+    runs, outputs = _interleaved(
+        {
+            "bandopt_jit": lambda: jax.block_until_ready(compiled(device_spectra)),
+            "bandopt_eager": lambda: jax.block_until_ready(
+                metrics(spectra, wavelength_nm)
+            ),
+            "numpy_baseline": lambda: _numpy_baseline(wavelength_nm, spectra),
+        },
+        config.repeats,
     )
-    eager_s, eager_runs, _ = _best_of(
-        lambda: jax.block_until_ready(metrics(spectra, wavelength_nm)), config.repeats
-    )
-    numpy_s, numpy_runs, base_out = _best_of(
-        lambda: _numpy_baseline(wavelength_nm, spectra), config.repeats
-    )
+    result, base_out = outputs["bandopt_jit"], outputs["numpy_baseline"]
+    jit_runs, eager_runs, numpy_runs = runs.values()
+    jit_s, eager_s, numpy_s = (min(r) for r in runs.values())
 
     rng = np.random.default_rng(config.seed + 1)
     sub = rng.choice(n, config.n_colour, replace=False)
