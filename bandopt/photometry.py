@@ -15,6 +15,14 @@ are concrete, and `eqx.error_if` fails the computation when they are traced.
 Outside 380-780 nm a NaN marks a sample as not measured: it only narrows
 `LER_full_range`.
 
+**One pass.** Every quantity is a function of eight integrals per spectrum
+(∫S, ∫VS, X, Y, Z and the blue ∫S over their ranges, ∫S and ∫VS over the whole
+grid), taken in one matrix product with stacked weights, so the spectra are
+read once. The checks run on those integrals (a NaN/inf sample makes the
+whole-grid ∫S non-finite); only spectra that fail them are read again.
+Concrete spectra are integrated on the host with NumPy and are scale-free
+(see `_host_integrals`); traced spectra are integrated by XLA, unscaled.
+
 **Undefined values.** A spectrum with no net power in 380-780 nm (all zero) has
 no LER, chromaticity or CCT: those are NaN, documented here and flagged (CCT);
 it is the only way this module returns NaN. Every division and logarithm is a
@@ -37,6 +45,11 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Real
 
 from . import _photometry_tables as _tables
+from ._photometry_cct import (
+    ohno2013 as _ohno2013,
+    robertson1968 as _robertson1968,
+    safe_div as _safe_div,
+)
 from .names import canonical_key
 
 
@@ -101,9 +114,17 @@ def _resolve(name: str, registry: dict[str, str], argument: str) -> str:
 # Validation (static, before anything is traced)
 
 
+_COLUMNS = ("S", "VS", "X", "Y", "Z", "blue", "S_full", "VS_full")
+"""The integrals every quantity here is computed from, in the order of the
+columns of `_grid_constants(...)["weights"]`: ∫S, ∫VS, X, Y, Z over 380-780 nm,
+∫S over 380-500 nm, and ∫S, ∫VS over the whole grid (every sample measured)."""
+_S, _VS, _X, _BLUE, _S_FULL, _VS_FULL = 0, 1, 2, 5, 6, 7  # in `_COLUMNS`
+
+
 @functools.cache
 def _grid_constants(start_nm: int, n: int) -> dict[str, np.ndarray | int]:
-    """Index ranges and observer tables for the 1 nm grid `start_nm + arange(n)`."""
+    """Index range of 380-780 nm, V(λ) and the stacked trapezoid weights of
+    every integral in `_COLUMNS` on the 1 nm grid `start_nm + arange(n)`."""
     obs_nm, v_obs, xyz_obs = _tables.observer_tables()
     grid = start_nm + np.arange(n, dtype=np.float64)
     # V(λ) on the whole grid, zero where the CIE does not tabulate it (< 360, > 830).
@@ -117,18 +138,18 @@ def _grid_constants(start_nm: int, n: int) -> dict[str, np.ndarray | int]:
     q_vis[[0, -1]] = 0.5  # trapezoid, 1 nm
     q_blue = np.where(vis <= BLUE_END_NM, 1.0, 0.0)
     q_blue[[0, BLUE_END_NM - VISIBLE_START_NM]] = 0.5
-    # Columns: ∫S, ∫VS, X, Y, Z (all 380-780 nm), ∫S over 380-500 nm.
-    weights = np.stack(
+    q_full = np.ones(n)
+    q_full[[0, -1]] = 0.5
+    i0 = VISIBLE_START_NM - start_nm
+    weights = np.zeros((n, len(_COLUMNS)))
+    weights[i0 : i0 + vis.size, :_S_FULL] = np.stack(
         [q_vis, q_vis * v_obs[rows], *(q_vis[:, None] * xyz_obs[rows]).T, q_blue],
         axis=-1,
     )
-    i0 = VISIBLE_START_NM - start_nm
-    return {
-        "i380": i0,
-        "i781": i0 + vis.size,
-        "visible_weights": weights,  # (401, 6)
-        "v_full": v_full,  # (n,)
-    }
+    weights[:, _S_FULL] = q_full
+    weights[:, _VS_FULL] = q_full * v_full
+    weights.setflags(write=False)
+    return {"i380": i0, "i781": i0 + vis.size, "weights": weights, "v_full": v_full}
 
 
 def _check_grid(wavelength_nm, n_samples: int) -> int:
@@ -184,99 +205,111 @@ def _as_spectra(spectra) -> Array | np.ndarray:
     return spectra
 
 
-def _visible_is_traced(spectra, start_nm: int) -> bool:
-    """Raise `ValueError` on NaN/inf inside 380-780 nm if concrete; say if traced."""
-    try:
-        host = np.asarray(spectra)
-    except jax.errors.TracerArrayConversionError:
-        return True  # checked by `eqx.error_if` inside the core
+def _raise_if_visible_not_finite(rows, row_index, batch_shape, start_nm) -> None:
+    """`ValueError` naming the first NaN/inf inside 380-780 nm, if any.
+
+    `rows` (k, w) are the spectra at the flat batch positions `row_index`: every
+    spectrum whose integrals are not finite, so every one that can hold one.
+    """
     i0 = VISIBLE_START_NM - start_nm
-    bad = ~np.isfinite(host[..., i0 : i0 + VISIBLE_END_NM - VISIBLE_START_NM + 1])
+    bad = ~np.isfinite(rows[:, i0 : i0 + VISIBLE_END_NM - VISIBLE_START_NM + 1])
     if bad.any():
-        where = np.argwhere(bad)[0]
+        k, nm = np.argwhere(bad)[0]
+        where = np.unravel_index(row_index[k], batch_shape)
         raise ValueError(
             f"`spectra` has NaN or inf inside {VISIBLE_START_NM}-{VISIBLE_END_NM} nm "
             f"({int(bad.any(axis=-1).sum())} spectra; first at batch index "
-            f"{tuple(int(i) for i in where[:-1])}, {VISIBLE_START_NM + where[-1]} nm): "
+            f"{tuple(int(i) for i in where)}, {VISIBLE_START_NM + nm} nm): "
             "the visible integrals need every sample there."
         )
-    return False
 
 
 def _run(spectra, wavelength_nm, quantity: str, method: str = "ohno2013"):
-    """Validate outside any trace, then one jitted core for `quantity`."""
+    """Validate outside any trace, integrate (one pass), then one jitted
+    function of the integrals for `quantity`."""
     spectra = _as_spectra(spectra)
     start = _check_grid(wavelength_nm, spectra.shape[-1])
-    check = _visible_is_traced(spectra, start)
-    if not check:  # concrete: scale-free on the host (traced values are not)
-        spectra = _unit_peak(np.asarray(spectra))
-    return _core(spectra, start, quantity, method, check)
+    try:
+        host = np.asarray(spectra)
+    except jax.errors.TracerArrayConversionError:
+        return _core(spectra, start, quantity, method)
+    return _from_integrals(_host_integrals(host, start), quantity, method)
 
 
 # --------------------------------------------------------------------------------------
-# Numerics (pure JAX; safe divisions and roots)
+# Integrals: the one pass over the spectra
 
 
-def _safe_div(num: ArrayLike, den: Array, ok: Array) -> Array:
-    """`num / den` where `ok`, 0 elsewhere, with finite gradients."""
-    return jnp.where(ok, num / jnp.where(ok, den, 1.0), 0.0)
+def _dot(a, b):
+    """Matrix product at full precision, NumPy or JAX by the type of `a`."""
+    if isinstance(a, np.ndarray):
+        return a @ b
+    return jnp.matmul(a, b, precision=jax.lax.Precision.HIGHEST)
 
 
-def _safe_sqrt(x: Array) -> Array:
-    pos = x > 0
-    return jnp.where(pos, jnp.sqrt(jnp.where(pos, x, 1.0)), 0.0)
+def _masked_integrals(xp, spectra, weights: np.ndarray, v_full: np.ndarray):
+    """(*batch, 8) integrals of `_COLUMNS` where a NaN/inf sample outside
+    380-780 nm is not measured: the full-range pair then covers only the grid
+    intervals whose two end samples are finite. `xp` is NumPy or `jax.numpy`.
+    [nm·S]"""
+    measured = xp.isfinite(spectra)
+    s0 = xp.where(measured, spectra, 0.0)
+    pair = (measured[..., :-1] & measured[..., 1:]).astype(s0.dtype)
+    pad = xp.zeros((*s0.shape[:-1], 1), s0.dtype)
+    q = 0.5 * (xp.concatenate([pad, pair], -1) + xp.concatenate([pair, pad], -1))
+    qs = q * s0
+    full = [xp.sum(qs, -1), _dot(qs, v_full.astype(s0.dtype))]
+    return xp.concatenate(
+        [_dot(s0, weights[:, :_S_FULL].astype(s0.dtype)), xp.stack(full, -1)], -1
+    )
 
 
 def _unit_peak(spectra: np.ndarray) -> np.ndarray:
-    """Each concrete spectrum scaled by the power of two that brings its
-    largest finite |value| into [0.5, 1), on the host. Every quantity here is
-    a ratio of integrals and a power of two scales exactly, so results are
-    bit-identical to the unscaled ones wherever those neither overflow (a
-    peak near the float maximum) nor underflow (a tiny peak); there they are
-    now right too. On the host because XLA on CPU flushes subnormal numbers
-    to zero. An all-zero spectrum stays zero."""
+    """Each spectrum scaled by the power of two that brings its largest finite
+    |value| into [0.5, 1) (exact). An all-zero spectrum stays zero."""
     finite = np.isfinite(spectra)
     peak = np.max(np.where(finite, np.abs(spectra), 0.0), axis=-1, keepdims=True)
     _, exponent = np.frexp(peak)
     return np.where(finite, np.ldexp(spectra, -exponent), spectra)
 
 
-def _visible_integrals(visible: Array, weights: np.ndarray) -> Array:
-    """(*batch, 6): ∫S, ∫VS, X, Y, Z over 380-780 nm and ∫S over 380-500 nm. [nm·S]"""
-    return jnp.matmul(
-        visible,
-        jnp.asarray(weights, visible.dtype),
-        precision=jax.lax.Precision.HIGHEST,
-    )
+def _host_integrals(spectra: np.ndarray, start_nm: int) -> np.ndarray:
+    """(*batch, 8) integrals of `_COLUMNS` of concrete spectra, scale-free. [1]
 
-
-@jax.jit
-def _full_range_integrals(
-    spectra: Float[Array, "*batch w"], v_full: Float[Array, " w"]
-) -> Float[Array, "*batch 2"]:
-    """∫S and ∫VS over every grid interval whose two end samples are finite."""
-
-    def all_measured(s):
-        q = jnp.ones(v_full.shape, s.dtype).at[jnp.array([0, -1])].set(0.5)
-        weights = jnp.stack([q, q * v_full], -1)
-        return jnp.matmul(s, weights, precision=jax.lax.Precision.HIGHEST)
-
-    def masked(s):
-        m = jnp.isfinite(s)
-        s0 = jnp.where(m, s, 0.0)
-        pair = (m[..., :-1] & m[..., 1:]).astype(s.dtype)  # interval measured
-        pad = jnp.zeros((*s.shape[:-1], 1), s.dtype)
-        q = 0.5 * (jnp.concatenate([pad, pair], -1) + jnp.concatenate([pair, pad], -1))
-        qs = q * s0
-        return jnp.stack(
-            [
-                jnp.sum(qs, -1),
-                jnp.matmul(qs, v_full, precision=jax.lax.Precision.HIGHEST),
-            ],
-            -1,
+    One product of the spectra with the stacked weights reads every sample
+    once, on the host (NumPy keeps subnormal numbers; XLA on CPU flushes them
+    to zero). The checks then run on the integrals: the full-range ∫S weighs
+    every sample, so a NaN/inf sample makes it non-finite, and an integral of
+    at least 2^(2 p) times the smallest normal number (p mantissa bits) has
+    lost nothing to products that underflowed. Only the spectra failing that
+    (a NaN/inf, an integral that overflows, is zero or tiny) are read again:
+    checked for NaN/inf inside 380-780 nm (`ValueError`), scaled to a unit
+    peak by a power of two and integrated with unmeasured samples left out.
+    Every row of integrals is finally scaled by the power of two that brings
+    its largest into [0.5, 1): every quantity is a ratio of them, so results
+    are exactly those of the unscaled spectrum wherever its arithmetic neither
+    overflows nor underflows, and right where it would.
+    """
+    consts = _grid_constants(start_nm, spectra.shape[-1])
+    weights = consts["weights"].astype(spectra.dtype)
+    flat = spectra.reshape(-1, spectra.shape[-1])
+    info = np.finfo(spectra.dtype)
+    with np.errstate(over="ignore", invalid="ignore"):  # caught by the test below
+        sums = (weights.T @ flat.T).T  # this operand order is ~2x faster in BLAS
+        ok = np.isfinite(sums) & (np.abs(sums) >= np.ldexp(info.tiny, 2 * info.nmant))
+    redo = ~np.all(ok, axis=-1)
+    if redo.any():
+        rows, row_index = flat[redo], np.flatnonzero(redo)
+        _raise_if_visible_not_finite(rows, row_index, spectra.shape[:-1], start_nm)
+        sums[redo] = _masked_integrals(
+            np, _unit_peak(rows), consts["weights"], consts["v_full"]
         )
+    _, exponent = np.frexp(np.max(np.abs(sums), axis=-1, keepdims=True))
+    return np.ldexp(sums, -exponent).reshape(*spectra.shape[:-1], len(_COLUMNS))
 
-    return jax.lax.cond(jnp.all(jnp.isfinite(spectra)), all_measured, masked, spectra)
+
+# --------------------------------------------------------------------------------------
+# From the integrals to the quantities (pure JAX)
 
 
 def _ler_from(num: Array, den: Array) -> Array:
@@ -301,110 +334,6 @@ def _uv_from_xyz(xyz: Array) -> tuple[Array, Array, Array]:
     return u, v, ok
 
 
-@functools.partial(jax.jit, static_argnames="stride")
-def _ohno2013(
-    u: Float[Array, " n"],
-    v: Float[Array, " n"],
-    table: Float[Array, "t 3"],
-    stride: int,
-) -> tuple[Float[Array, " n"], Float[Array, " n"], Bool[Array, " n"]]:
-    """CCT, Duv and "nearest row not at the table ends", as colour's
-    `uv_to_CCT_Ohno2013` (colour 0.4.7) computes them.
-
-    Nearest table row by a two-level search: every `stride`-th row, then the
-    `2 stride + 1` rows around the coarse winner. Exact whenever the distance to
-    the table rows is unimodal along the locus within ± `stride` rows of the
-    nearest one, as it is for |Duv| <= 0.05 (checked against a brute-force search
-    in the tests). Then Ohno's triangular solution, replaced by the parabolic one
-    where the triangular |Duv| >= 0.002. The parabola is written about the middle
-    row (algebraically colour's global form, better conditioned in float32).
-    """
-    t_k, t_u, t_v = table[:, 0], table[:, 1], table[:, 2]
-    n_rows = table.shape[0]
-    width = 2 * stride + 1
-    uu, vv = u[:, None], v[:, None]
-
-    coarse = jnp.argmin(
-        (uu - t_u[None, ::stride]) ** 2 + (vv - t_v[None, ::stride]) ** 2, -1
-    )
-    start = jnp.clip(coarse * stride - stride, 0, n_rows - width)
-    rows = start[:, None] + jnp.arange(width)[None, :]
-    fine = jnp.argmin((uu - t_u[rows]) ** 2 + (vv - t_v[rows]) ** 2, -1)
-    nearest = start + fine
-    interior = (nearest > 0) & (nearest < n_rows - 1)
-    i = jnp.clip(nearest, 1, n_rows - 2)
-
-    def row(k):
-        d = _safe_sqrt((u - t_u[k]) ** 2 + (v - t_v[k]) ** 2)
-        return t_k[k], t_u[k], t_v[k], d
-
-    tp, up, vp, dp = row(i - 1)
-    ti, _, _, di = row(i)
-    tn, un, vn, dn = row(i + 1)
-
-    # Triangular solution.
-    ell = jnp.hypot(un - up, vn - vp)
-    x = (dp**2 - dn**2 + ell**2) / (2.0 * ell)
-    cct_t = tp + (tn - tp) * (x / ell)
-    v_tx = vp + (vn - vp) * (x / ell)
-    sign = jnp.sign(v - v_tx)
-    duv_t = _safe_sqrt(dp**2 - x**2) * sign
-
-    # Parabolic solution, d(T) = a (T - ti)² + b (T - ti) + di.
-    h1, h2 = tp - ti, tn - ti
-    a = ((dn - di) / h2 - (dp - di) / h1) / (h2 - h1)
-    b = (dp - di) / h1 - a * h1
-    a_ok = a != 0
-    cct_p = ti - _safe_div(b, 2.0 * a, a_ok)
-    duv_p = (di - _safe_div(b**2, 4.0 * a, a_ok)) * sign
-
-    parabolic = jnp.abs(duv_t) >= 0.002
-    return (
-        jnp.where(parabolic, cct_p, cct_t),
-        jnp.where(parabolic, duv_p, duv_t),
-        interior,
-    )
-
-
-@jax.jit
-def _robertson1968(
-    u: Float[Array, " n"], v: Float[Array, " n"], lines: Float[Array, "31 4"]
-) -> tuple[Float[Array, " n"], Float[Array, " n"], Bool[Array, " n"]]:
-    """CCT, Duv and "a crossing isotemperature line was found", as colour's
-    `uv_to_CCT_Robertson1968` (colour 0.4.7) computes them: the first line
-    (from 100000 K down) the point lies on or beyond, linear interpolation in
-    mired with the previous line, Duv along the interpolated line direction.
-    Without a crossing (below 1667 K) colour returns 1667 K: flagged here.
-    """
-    mired, lu, lv, slope = lines[:, 0], lines[:, 1], lines[:, 2], lines[:, 3]
-    length = jnp.hypot(1.0, slope)
-    du, dv = 1.0 / length, slope / length
-    uu = u[:, None] - lu[None, 1:]
-    vv = v[:, None] - lv[None, 1:]
-    dt = -uu * dv[None, 1:] + vv * du[None, 1:]  # (n, 30)
-    crossed = dt <= 0
-    found = jnp.any(crossed, -1)
-    i = jnp.where(found, jnp.argmax(crossed, -1) + 1, 30)
-
-    def at(k):
-        return jnp.take_along_axis(dt, jnp.clip(k, 0, 29)[:, None], -1)[:, 0]
-
-    dt_cur = -jnp.minimum(at(i - 1), 0.0)
-    dt_prev = at(i - 2)
-    ok = (i > 1) & (dt_prev + dt_cur > 0)
-    f = _safe_div(dt_cur, dt_prev + dt_cur, ok)
-
-    m = mired[i - 1] * f + mired[i] * (1.0 - f)
-    cct = _safe_div(1.0e6, m, m > 0)
-    u_i = lu[i - 1] * f + lu[i] * (1.0 - f)
-    v_i = lv[i - 1] * f + lv[i] * (1.0 - f)
-    du_i = du[i] * (1.0 - f) + du[i - 1] * f
-    dv_i = dv[i] * (1.0 - f) + dv[i - 1] * f
-    norm = jnp.hypot(du_i, dv_i)
-    duv = -((u - u_i) * du_i + (v - v_i) * dv_i) / norm
-    return cct, duv, found
-
-
 def _cct_from_xyz(xyz: Array, method: str) -> tuple[Array, Array, Array]:
     batch = xyz.shape[:-1]
     u, v, ok = _uv_from_xyz(xyz.reshape(-1, 3))
@@ -427,40 +356,51 @@ def _cct_from_xyz(xyz: Array, method: str) -> tuple[Array, Array, Array]:
     return cct.reshape(batch), duv.reshape(batch), meaningful.reshape(batch)
 
 
-@functools.partial(jax.jit, static_argnums=(1, 2, 3, 4))
-def _core(spectra: Array, start_nm: int, quantity: str, method: str, check: bool):
-    consts = _grid_constants(start_nm, spectra.shape[-1])
-    visible = spectra[..., consts["i380"] : consts["i781"]]
-    if check:
-        visible = eqx.error_if(
-            visible,
-            jnp.any(~jnp.isfinite(visible)),
-            "`spectra` has NaN or inf inside 380-780 nm.",
-        )
-    if quantity == "ler-full":
-        full = _full_range_integrals(
-            spectra, jnp.asarray(consts["v_full"], spectra.dtype)
-        )
-        return _ler_from(full[..., 1], full[..., 0])
-    sums = _visible_integrals(visible, consts["visible_weights"])
-    if quantity == "ler":
-        return _ler_from(sums[..., 1], sums[..., 0])
+@functools.partial(jax.jit, static_argnums=(1, 2))
+def _from_integrals(sums: Float[Array, "*batch 8"], quantity: str, method: str):
+    """`quantity` from the integrals of `_COLUMNS` (any common scale)."""
+    ler_visible = _ler_from(sums[..., _VS], sums[..., _S])
+    ler_full = _ler_from(sums[..., _VS_FULL], sums[..., _S_FULL])
+    if quantity in ("ler", "ler-full"):
+        return ler_visible if quantity == "ler" else ler_full
+    g, g_flag = _g_from(sums[..., _BLUE], sums[..., _VS])
     if quantity == "g":
-        return _g_from(sums[..., 5], sums[..., 1])
+        return g, g_flag
+    cct, duv, meaningful = _cct_from_xyz(sums[..., _X : _X + 3], method)
     if quantity == "cct":
-        return _cct_from_xyz(sums[..., 2:5], method)
-    full = _full_range_integrals(spectra, jnp.asarray(consts["v_full"], spectra.dtype))
-    g, g_flag = _g_from(sums[..., 5], sums[..., 1])
-    cct, duv, meaningful = _cct_from_xyz(sums[..., 2:5], "ohno2013")
+        return cct, duv, meaningful
     return {
-        "LER": _ler_from(sums[..., 1], sums[..., 0]),
-        "LER_full_range": _ler_from(full[..., 1], full[..., 0]),
+        "LER": ler_visible,
+        "LER_full_range": ler_full,
         "G": g,
         "G_flag": g_flag,
         "CCT": cct,
         "Duv": duv,
         "CCT_flag": ~meaningful,
     }
+
+
+@functools.partial(jax.jit, static_argnums=(1, 2, 3))
+def _core(spectra: Array, start_nm: int, quantity: str, method: str):
+    """Traced spectra: one product with the stacked weights; only if an
+    integral is not finite, the whole batch again with unmeasured samples
+    left out, failing (`eqx.error_if`) on a NaN/inf inside 380-780 nm.
+    Unscaled: a spectrum near the float limits can overflow or underflow."""
+    consts = _grid_constants(start_nm, spectra.shape[-1])
+    sums = _dot(spectra, jnp.asarray(consts["weights"], spectra.dtype))
+
+    def masked():
+        visible = spectra[..., consts["i380"] : consts["i781"]]
+        return (
+            _masked_integrals(jnp, spectra, consts["weights"], consts["v_full"]),
+            jnp.any(~jnp.isfinite(visible)),
+        )
+
+    sums, bad = jax.lax.cond(
+        jnp.all(jnp.isfinite(sums)), lambda: (sums, jnp.bool_(False)), masked
+    )
+    sums = eqx.error_if(sums, bad, "`spectra` has NaN or inf inside 380-780 nm.")
+    return _from_integrals(sums, quantity, method)
 
 
 # --------------------------------------------------------------------------------------

@@ -460,3 +460,113 @@ def test_unknown_names_list_the_choices():
     a = ph.cct_duv(_hps(), GRID, method="Ohno 2013")[0]
     b = ph.cct_duv(_hps(), GRID, method="OHNO_2013")[0]
     assert float(a) == float(b)
+
+
+# --------------------------------------------------------------------------------------
+# One pass: the stacked integrals against integrals taken one by one
+
+
+def _trapezoid_integrals(wl, values):
+    """(n, 8) integrals of `ph._COLUMNS` by `np.trapezoid`, one quantity at a
+    time, the whole-grid pair over the measured (finite) prefix of each row."""
+    obs_nm, v_obs, xyz_obs = ph._tables.observer_tables()
+    vis = (wl >= 380) & (wl <= 780)
+    rows = np.searchsorted(obs_nm, wl[vis])
+    blue = vis & (wl <= 500)
+    v_all = np.interp(wl, obs_nm, v_obs, left=0.0, right=0.0)
+    out = []
+    for s in values:
+        measured = np.cumprod(np.isfinite(s)).astype(bool)  # NaN tails only
+        out.append(
+            [
+                np.trapezoid(s[vis], wl[vis]),
+                np.trapezoid(s[vis] * v_obs[rows], wl[vis]),
+                *np.trapezoid(s[vis, None] * xyz_obs[rows], wl[vis], axis=0),
+                np.trapezoid(s[blue], wl[blue]),
+                np.trapezoid(s[measured], wl[measured]),
+                np.trapezoid(s[measured] * v_all[measured], wl[measured]),
+            ]
+        )
+    return np.asarray(out)
+
+
+def _edge_cases(wl):
+    """Spectra that take the second read: zeros, nothing in 380-780 nm, lines
+    whose Z or blue integral is exactly 0, NaN tails, negative noise."""
+    lines = [np.clip(1 - np.abs(wl - c) / 10, 0, None) for c in (450, 589, 700, 850)]
+    deltas = np.zeros((3, wl.size))
+    deltas[[0, 1, 2], np.searchsorted(wl, [380, 555, 780])] = 1.0
+    tail = np.tile(_hps_on(wl), (2, 1))
+    tail[0, wl > 850] = np.nan
+    tail[1, wl > 781] = np.nan
+    noisy = _hps_on(wl) + np.random.default_rng(4).normal(0, 0.02, wl.size)
+    return np.vstack([np.zeros((2, wl.size)), lines, deltas, tail, noisy])
+
+
+def _hps_on(wl):
+    out = np.zeros(wl.size)
+    out[(wl >= 380) & (wl <= 780)] = _hps()
+    return out
+
+
+@pytest.mark.parametrize("set_name", SETS)
+def test_one_pass_equals_integrals_taken_one_by_one(set_name):
+    # The stacked weights, the checks on the integrals and the scaling of the
+    # integrals (not the spectra) change nothing but rounding: every quantity
+    # equals the same formulas on `np.trapezoid` integrals to 1e-9, eager
+    # (NumPy) and jitted (XLA), at ordinary scale and near the float limits.
+    # CCT/Duv beyond the table's 100000 K are left out: Ohno's parabola
+    # extrapolated there turns 1-ulp changes in XYZ into 1e-5 in CCT.
+    wl, values, _ = _set(set_name)
+    wl = np.arange(380.0, 901.0) if set_name == "colour" else wl
+    values = np.pad(values, [(0, 0), (0, wl.size - values.shape[1])])
+    values = np.vstack([values, _edge_cases(wl)])
+    peak = np.nanmax(np.abs(values), axis=-1, keepdims=True)
+    peak[peak == 0] = 1.0
+    values = values / peak
+    # Subnormal: the samples lose bits when scaled down, so the reference
+    # integrates the same rounded numbers scaled back up (exact).
+    tiny = np.ldexp(values, -1040)
+    runs = {
+        "eager": (ph.metrics(values, wl), values),
+        "jit": (jax.jit(lambda s: ph.metrics(s, wl))(values), values),
+        "peak 1e308": (ph.metrics(values * 1e308, wl), values),
+        "peak 3e-308": (ph.metrics(values * 3e-308, wl), values),
+        "peak 2^-1040": (ph.metrics(tiny, wl), np.ldexp(tiny, 1040)),
+    }
+    for run, (m, same) in runs.items():
+        ref = ph._from_integrals(_trapezoid_integrals(wl, same), "metrics", "ohno2013")
+        in_table = ~(np.asarray(ref["CCT"]) > ph._tables.OHNO2013_END_K)
+        for k, expected in ref.items():
+            got, expected = np.asarray(m[k]), np.asarray(expected)
+            if k in ("CCT", "Duv"):
+                got, expected = got[in_table], expected[in_table]
+            if got.dtype == bool:
+                np.testing.assert_array_equal(got, expected, err_msg=f"{run} {k}")
+            else:
+                np.testing.assert_allclose(
+                    got, expected, rtol=1e-9, atol=1e-12, err_msg=f"{run} {k}"
+                )
+    assert in_table.mean() > 0.95
+
+
+def test_nan_in_a_batch_is_found_from_the_integrals():
+    # Only spectra with a non-finite integral are read again: the error still
+    # counts every spectrum with a NaN/inf in 380-780 nm and names the first.
+    s = np.tile(_hps(), (2, 3, 1))
+    s[1, 0, 0] = np.inf  # 380 nm, half weight
+    s[1, 2, 400] = np.nan  # 780 nm, half weight
+    with pytest.raises(
+        ValueError, match=r"\(2 spectra; first at batch index \(1, 0\), 380"
+    ):
+        ph.metrics(s, GRID)
+    s[1, 0, 0] = 1.0
+    with pytest.raises(ValueError, match=r"\(1 spectra; .* \(1, 2\), 780 nm\)"):
+        ph.g_index(s, GRID)
+    # NaN at the grid's last sample (half weight in the full range) narrows it.
+    wl = np.arange(380.0, 801.0)
+    ext = np.r_[_hps(), np.linspace(0.3, 0.1, 19), np.nan]
+    full = ph.ler(ext, wl, denominator="full")
+    np.testing.assert_allclose(full, ph.ler(ext[:-1], wl[:-1], denominator="full"))
+    traced = jax.jit(lambda x: ph.ler(x, wl, denominator="full"))(ext)
+    np.testing.assert_allclose(traced, full, rtol=1e-12)
