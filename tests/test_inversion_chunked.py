@@ -10,9 +10,8 @@ import numpy as np
 import pytest
 
 from bandopt import inversion as inv_mod
-from bandopt.scene import build_scenarios
 from tests._bands import FIVE, GRID
-from tests._inversion import patch_inversion
+from tests._inversion import moonlit_scenarios, patch_inversion
 
 
 N = 10
@@ -29,13 +28,7 @@ def fitted():
     four band-error models, a finite threshold and two flag folds, and
     `N` pixels of its own lamps on asphalt and grass with their Moon."""
     lamps = inv_mod.library_lamps(GRID, scored=True).take(range(0, 200, 5))
-    scen = build_scenarios(
-        lamps=[lamps.ids[0]],
-        surfaces=("asphalt", "grass"),
-        atmospheres=(("midlatitude_summer", "urban", 23.0),),
-        moons=(None, "full"),
-        classes=("P6",),
-    )
+    scen = moonlit_scenarios(lamps.ids[0])
     cond = inv_mod.Conditions.from_scenarios(scen)
     w = inv_mod.band_weights_on(FIVE, GRID)
     base = inv_mod.build_inversion(lamps, w, cond, inv_mod.surface_basis(GRID))
