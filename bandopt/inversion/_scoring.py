@@ -298,7 +298,7 @@ larger priors (e.g. with `mixture_lamps`) get proportionally fewer pixels
 per call (`_chunk`), so memory stays bounded."""
 
 
-PREDICT_MEMORY_BYTES = 256 * 2**20
+PREDICT_MEMORY_BYTES = 128 * 2**20
 """Default budget [bytes] of the posteriors of one chunk of
 `Inversion.predict` (`predict_chunk_bytes`): pixels are predicted in chunks
 that fit it, so peak memory does not grow with the pixel count. The compiled
