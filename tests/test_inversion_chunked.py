@@ -96,6 +96,9 @@ def test_every_chunk_size_gives_the_unchunked_prediction(fitted, surface, told):
     assert len(whole.misfit) == N and np.isfinite(whole.estimate[:, :2]).all()
     for step in (1, 3, 4, 7, N + 5, None):
         _same(inv.predict(y, s, m, chunk_pixels=step), whole)
+    parts = list(inv.predict_chunks(y, s, m, chunk_pixels=4))
+    assert [i for i, _ in parts] == [0, 4, 8]
+    _same(inv_mod.InversionResult.concatenate([r for _, r in parts]), whole)
     rows = [whole.row(i) for i in range(N)]
     assert rows == [inv.predict(y, s, m, chunk_pixels=3).row(i) for i in range(N)]
 

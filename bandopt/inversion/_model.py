@@ -326,7 +326,46 @@ class Inversion:
         each chunk runs the scoring path the whole input would,
         `shared_surface`)."""
         y = np.atleast_2d(np.asarray(radiance, float))
+        step = self._step(chunk_pixels, memory_bytes)
+        if y.shape[0] <= step:
+            return self._predict_chunk(y, surface, moon, None)
+        return InversionResult.concatenate(
+            [r for _, r in self.predict_chunks(y, surface, moon, chunk_pixels=step)]
+        )
+
+    def predict_chunks(
+        self,
+        radiance,
+        surface=None,
+        moon=None,
+        *,
+        chunk_pixels: int | None = None,
+        memory_bytes: int = PREDICT_MEMORY_BYTES,
+    ):
+        """`predict` one chunk at a time: yields (first pixel's index,
+        `InversionResult` of the chunk), so a caller that writes each chunk
+        out (e.g. a map, tile by tile) holds one chunk's results at a time.
+        The chunks' results are `predict`'s rows."""
+        y = np.atleast_2d(np.asarray(radiance, float))
         n = y.shape[0]
+        step = self._step(chunk_pixels, memory_bytes)
+        for name, x in (("surface", surface), ("moon", moon)):
+            if x is not None and len(x) != n:
+                raise ValueError(f"{name}: {len(x)} entries for {n} pixels.")
+        shared = self.shared_surface(n, surface)
+        for i in range(0, n, step):
+            yield (
+                i,
+                self._predict_chunk(
+                    y[i : i + step],
+                    None if surface is None else surface[i : i + step],
+                    None if moon is None else moon[i : i + step],
+                    shared,
+                ),
+            )
+
+    def _step(self, chunk_pixels, memory_bytes) -> int:
+        """Pixels per chunk: `chunk_pixels`, or what fits `memory_bytes`."""
         step = (
             self.predict_chunk_pixels(memory_bytes)
             if chunk_pixels is None
@@ -334,23 +373,7 @@ class Inversion:
         )
         if step < 1:
             raise ValueError(f"chunk_pixels must be >= 1 (got {chunk_pixels}).")
-        if n <= step:
-            return self._predict_chunk(y, surface, moon, None)
-        for name, x in (("surface", surface), ("moon", moon)):
-            if x is not None and len(x) != n:
-                raise ValueError(f"{name}: {len(x)} entries for {n} pixels.")
-        shared = self.shared_surface(n, surface)
-        return InversionResult.concatenate(
-            [
-                self._predict_chunk(
-                    y[i : i + step],
-                    None if surface is None else surface[i : i + step],
-                    None if moon is None else moon[i : i + step],
-                    shared,
-                )
-                for i in range(0, n, step)
-            ]
-        )
+        return step
 
     def _predict_chunk(self, y, surface, moon, shared) -> InversionResult:
         """`predict` of one chunk of pixels `y` (n, b) (`shared`: see
