@@ -333,22 +333,15 @@ class Inversion:
             [r for _, r in self.predict_chunks(y, surface, moon, chunk_pixels=step)]
         )
 
-    def predict_chunks(
-        self,
-        radiance,
-        surface=None,
-        moon=None,
-        *,
-        chunk_pixels: int | None = None,
-        memory_bytes: int = PREDICT_MEMORY_BYTES,
-    ):
+    def predict_chunks(self, radiance, surface=None, moon=None, chunk_pixels=None):
         """`predict` one chunk at a time: yields (first pixel's index,
         `InversionResult` of the chunk), so a caller that writes each chunk
         out (e.g. a map, tile by tile) holds one chunk's results at a time.
-        The chunks' results are `predict`'s rows."""
+        The chunks' results are `predict`'s rows. `chunk_pixels`: default
+        `predict_chunk_pixels()`."""
         y = np.atleast_2d(np.asarray(radiance, float))
         n = y.shape[0]
-        step = self._step(chunk_pixels, memory_bytes)
+        step = self._step(chunk_pixels, PREDICT_MEMORY_BYTES)
         for name, x in (("surface", surface), ("moon", moon)):
             if x is not None and len(x) != n:
                 raise ValueError(f"{name}: {len(x)} entries for {n} pixels.")
