@@ -21,12 +21,31 @@ prior); and the library-free direct estimate (`bandopt
 evaluate --estimator direct`, 26 contiguous bands, surface known) against
 the ridge on the same bands and pixels. Compilation is excluded (a warm-up
 call first).
+
+Image scale (`image_scale`, sizes `--sizes`, default 1e3, 1e4 and 1e5
+pixels): the estimator `bandopt evaluate` fits by default
+(`estimators.InversionConfig`, surface unknown, told moonless) predicts each
+size in a fresh process (its `Estimates`, in chunks of
+`Inversion.predict_chunk_pixels()`), timed once after a warm-up on one
+chunk plus the last chunk's size, with the ridge baseline on the same pixels
+in the same process; peak resident memory is that process's `VmHWM` (forked
+from a fresh forkserver) after the imports, after the warm-up and at the
+end. `resource.getrusage`'s `ru_maxrss` is recorded too but is not this
+run's: Linux keeps it across fork and exec, so it starts at the high-water
+mark of the process that started the server (this one, after fitting). The `exp`
+floor is the time of the `exp` calls the scoring makes per pixel (counted
+from the prior's, surface candidates' and atmospheres' sizes, the band-error
+models and the flag's inner folds) done alone, in the same process.
 """
 
 import argparse
 import dataclasses
 import json
+import multiprocessing
 import os
+import pickle
+import resource
+import tempfile
 import time
 from pathlib import Path
 
@@ -47,6 +66,11 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--out", default="results/bench")
+    ap.add_argument(
+        "--sizes",
+        default="1000,10000,100000",
+        help="pixel counts of the image-scale runs, comma-separated ('' none)",
+    )
     args = ap.parse_args(argv)
 
     from bandopt import configure
@@ -191,6 +215,9 @@ def main(argv=None) -> int:
         "load_average_1_5_15min": list(os.getloadavg()),
         "cpu_count": os.cpu_count(),
         "ridge_fit_s": t_fit_ridge,
+        "image_scale": image_scale(
+            ctx, bands, [int(float(x)) for x in args.sizes.split(",") if x]
+        ),
         "note": "best of 3 after a warm-up call; measured while other jobs shared "
         "the machine (see load_average): compare the ratio, not absolute times; "
         "predict includes intervals, class "
@@ -205,6 +232,131 @@ def main(argv=None) -> int:
     )
     print(json.dumps(out, indent=2))
     return 0
+
+
+def image_scale(ctx, bands, sizes) -> dict:
+    """Pixels per second and peak memory of `bandopt evaluate`'s default
+    inversion against the ridge and the `exp` floor, per pixel count of
+    `sizes`, each in a fresh process (see the module docstring)."""
+    if not sizes:
+        return {}
+    from bandopt import inversion as inv_mod
+    from bandopt.estimate import fit_estimator
+    from bandopt.estimators import InversionConfig
+
+    t0 = time.perf_counter()
+    fitted = InversionConfig().fit(ctx, bands, surface_mode="unknown")
+    t_fit = time.perf_counter() - t0
+    s = ctx.splits[0]
+    rad = ctx.radiance(bands)
+    ridge = fit_estimator(rad, ctx.table, s.train, s.inner)
+    moon = inv_mod.context_moon(ctx)
+    pool = rad[moon == 0] if np.any(moon == 0) else rad  # evaluate: moonless
+    runs = []
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "fitted.pkl"
+        path.write_bytes(pickle.dumps((fitted, ridge, pool)))
+        # each run forks from a small fresh server process; its peak memory
+        # is `VmHWM`, the high-water mark of its own address space
+        spawn = multiprocessing.get_context("forkserver")
+        for n in sizes:
+            with spawn.Pool(1) as pool_proc:
+                runs.append(pool_proc.apply(_scale_run, (str(path), n)))
+            print(json.dumps(runs[-1]), flush=True)
+    m = fitted.model
+    return {
+        "estimator": "estimators.InversionConfig() (bandopt evaluate's default), "
+        "surface unknown, told moonless",
+        "prior_lamps": len(m.prior.ids),
+        "noise_models": len(m._predict_noise()),
+        "flag_inner_folds": len(m.flag_folds),
+        "chunk_pixels": m.predict_chunk_pixels(),
+        "chunk_budget_bytes": inv_mod.PREDICT_MEMORY_BYTES,
+        "fit_s": t_fit,
+        "runs": runs,
+        "goal": ">= 10000 pixels/s on 2 cores; peak RSS <= 1 GB at any size",
+        "load_average_1_5_15min": list(os.getloadavg()),
+    }
+
+
+def _exp_count(inv) -> int:
+    """`exp` calls per pixel of `inv.predict` (surface unknown, Moon told):
+    one per lamp (padded), surface candidate and atmosphere per band-error
+    model in the scoring, the same per inner fold's prior for the flag, and
+    two per lamp and model in the normalisation."""
+    from bandopt import inversion as inv_mod
+
+    def pad(k):
+        return -(-k // inv_mod.K_BUCKET) * inv_mod.K_BUCKET
+
+    sa = inv.basis.type_coords.shape[0] * len(inv.conditions.labels)
+    k, n_noise = len(inv.prior.ids), len(inv._predict_noise())
+    folds = [len(f.model.prior.ids) for f in inv.flag_folds]
+    return (
+        n_noise * (pad(k) * sa + 2 * k)
+        + sum(pad(kf) * sa for kf in folds)
+        + 2 * sum(folds)
+    )
+
+
+def _scale_run(path: str, n: int) -> dict:
+    """One image-scale run in this (fresh) process: `n` pixels tiled from
+    the pool in `path`, predicted by the pickled default inversion (as
+    `Estimates`) and the ridge; times, peak RSS and the `exp` floor."""
+    from bandopt import configure
+
+    configure()
+    import jax
+    import jax.numpy as jnp
+
+    from bandopt.estimators import Surface
+    from bandopt.spectra import GRID_1NM
+
+    rss_start = _vm_hwm_kb()
+    fitted, ridge, pool = pickle.loads(Path(path).read_bytes())
+    pix = np.resize(pool, (n, pool.shape[1]))
+    surface = Surface("unknown", None, np.zeros(len(GRID_1NM)))
+    step = fitted.model.predict_chunk_pixels()
+    warm = pix[: min(n, step + n % step)]  # a whole chunk and the last one's size
+    fitted.predict(warm, surface)
+    np.asarray(ridge.predict(jnp.asarray(warm)))
+    rss_warm = _vm_hwm_kb()
+    t0 = time.perf_counter()
+    est = fitted.predict(pix, surface)
+    t_inv = time.perf_counter() - t0
+    assert len(est) == n
+    x = jnp.asarray(pix)
+    t_ridge = best_time(lambda: ridge.predict(x))  # compiled for n first
+    n_exp = _exp_count(fitted.model)
+    # 4 pixels' worth, summed as the scoring sums them (no array written)
+    block = jnp.asarray(np.random.default_rng(0).normal(size=n_exp * 4))
+    exp_sum = jax.jit(lambda x: jnp.sum(jnp.exp(x)))
+    t_exp = best_time(lambda: exp_sum(block), repeat=5) / 4
+    return {
+        "pixels": n,
+        "inversion_pixels_per_s": n / t_inv,
+        "ridge_pixels_per_s": n / t_ridge,
+        "ratio_inversion_to_ridge": t_inv / t_ridge,
+        "exp_per_pixel": n_exp,
+        "exp_floor_pixels_per_s": 1.0 / t_exp,
+        "ratio_inversion_to_exp_floor": (t_inv / n) / t_exp,
+        "peak_rss_mb_after_imports": rss_start / 1024,
+        "peak_rss_mb_after_warmup": rss_warm / 1024,
+        "peak_rss_mb": _vm_hwm_kb() / 1024,
+        "ru_maxrss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+    }
+
+
+def _vm_hwm_kb() -> float:
+    """This process's peak resident memory [kB] as the kernel counts it for
+    its own address space (`VmHWM`; NaN where /proc is missing)."""
+    status = Path("/proc/self/status")
+    if not status.is_file():
+        return float("nan")
+    for line in status.read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return float(line.split()[1])
+    return float("nan")
 
 
 if __name__ == "__main__":

@@ -27,3 +27,18 @@ def patch_inversion(monkeypatch: pytest.MonkeyPatch, name: str, value) -> None:
     for mod in MODULES:
         if getattr(mod, name, None) is real:
             monkeypatch.setattr(mod, name, value)
+
+
+def moonlit_scenarios(lamp_id: str):
+    """A scenario set of lamp `lamp_id` on asphalt and grass under one urban
+    midlatitude-summer atmosphere, moonless and under a full Moon: the
+    conditions of the small inversions of the Moon and chunking tests."""
+    from bandopt.scene import build_scenarios
+
+    return build_scenarios(
+        lamps=[lamp_id],
+        surfaces=("asphalt", "grass"),
+        atmospheres=(("midlatitude_summer", "urban", 23.0),),
+        moons=(None, "full"),
+        classes=("P6",),
+    )

@@ -225,6 +225,7 @@ INVERSION_FLOORS = (
     "_prior",
     "_scoring",
     "_metrics",
+    "_result",
     "_model",
     "_calibrate",
     "_fit",

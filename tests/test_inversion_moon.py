@@ -12,7 +12,7 @@ from bandopt import inversion as inv_mod
 from bandopt.forward import dense_spectra
 from bandopt.scene import build_scenarios
 from tests._bands import FIVE, GRID
-from tests._inversion import patch_inversion
+from tests._inversion import moonlit_scenarios, patch_inversion
 
 
 def test_known_amplitude_misfit_is_least_squares_with_the_moon_subtracted():
@@ -33,13 +33,7 @@ def moonlit():
     """Lamps, a scenario set with a moonless and a full-Moon state, its
     conditions, band weights, pixels and their Moon state."""
     lamps = inv_mod.library_lamps(GRID, scored=True).take(range(0, 120, 6))
-    scen = build_scenarios(
-        lamps=[lamps.ids[0]],
-        surfaces=("asphalt", "grass"),
-        atmospheres=(("midlatitude_summer", "urban", 23.0),),
-        moons=(None, "full"),
-        classes=("P6",),
-    )
+    scen = moonlit_scenarios(lamps.ids[0])
     cond = inv_mod.Conditions.from_scenarios(scen)
     w = inv_mod.band_weights_on(FIVE, GRID)
     rows, moon, types = [], [], []

@@ -91,7 +91,9 @@ prior mass. `bandopt.estimators.InversionConfig` turns both on.
 - `_prior`: the class-balanced lamp prior (`LampPrior`, `lamp_prior`);
 - `_scoring`: candidates, χ², the compiled scoring and the band-error model;
 - `_metrics`: posterior means and ranges of LER, G and CCT, `PHYSICAL_RANGE`;
-- `_model`: `Inversion`, `build_inversion`, `InversionResult`, `top_two`;
+- `_model`: `Inversion` (its `predict` in chunks of bounded memory),
+  `build_inversion`;
+- `_result`: `InversionResult`, `top_two`;
 - `_calibrate`: conformal factors, interval units, probability temperatures;
 - `_fit`: `fit_inversion`;
 - `_estimators`: `InversionOptions` and the named variants of `cross_validate`;
@@ -185,13 +187,10 @@ from ._metrics import (
     weighted_quantile as weighted_quantile,
 )
 from ._model import (
-    CLOSE_CALL_RATIO as CLOSE_CALL_RATIO,
     FlagFold as FlagFold,
     Inversion as Inversion,
-    InversionResult as InversionResult,
     _result as _result,
     build_inversion as build_inversion,
-    top_two as top_two,
 )
 from ._prior import (
     LampPrior as LampPrior,
@@ -202,11 +201,17 @@ from ._records import (
     interval_fields as interval_fields,
     record_errors as record_errors,
 )
+from ._result import (
+    CLOSE_CALL_RATIO as CLOSE_CALL_RATIO,
+    InversionResult as InversionResult,
+    top_two as top_two,
+)
 from ._scoring import (
     CHUNK as CHUNK,
     CHUNK_PRIOR as CHUNK_PRIOR,
     FLOOR_GRID as FLOOR_GRID,
     K_BUCKET as K_BUCKET,
+    PREDICT_MEMORY_BYTES as PREDICT_MEMORY_BYTES,
     SHARED_CHUNK as SHARED_CHUNK,
     SIGMA_FLOOR as SIGMA_FLOOR,
     SIGMA_REL_GRID as SIGMA_REL_GRID,
@@ -217,6 +222,8 @@ from ._scoring import (
     _score as _score,
     _score_chunk as _score_chunk,
     log_evidence as log_evidence,
+    predict_chunk_bytes as predict_chunk_bytes,
+    predict_chunk_pixels as predict_chunk_pixels,
 )
 from ._summary import (
     ESTIMATOR_PAIRS as ESTIMATOR_PAIRS,

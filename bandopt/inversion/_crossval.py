@@ -38,8 +38,8 @@ from ._lamps import (
     with_tm30_lamps,
 )
 from ._metrics import PHYSICAL_RANGE
-from ._model import InversionResult
 from ._records import LampScore, interval_fields, record_errors
+from ._result import InversionResult
 from ._surfaces import _surface_knowledge
 
 

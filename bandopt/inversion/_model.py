@@ -1,7 +1,7 @@
 """The fitted inversion: `Inversion` (prior, surface basis, conditions and the
-band-error model chosen on inner folds) with its posterior and `predict`,
-`build_inversion` to build one on a lamp set, and the per-pixel
-`InversionResult` (estimates, intervals, type probabilities, flags)."""
+band-error model chosen on inner folds) with its posterior and its `predict`
+in chunks of bounded memory, and `build_inversion` to build one on a lamp
+set."""
 
 import dataclasses
 
@@ -15,97 +15,17 @@ from ._conditions import Conditions
 from ._lamps import LampSet
 from ._metrics import _metrics_per_posterior, _widened
 from ._prior import LampPrior, lamp_prior
-from ._scoring import SIGMA_FLOOR, _design, _normalise, _score, log_evidence
+from ._result import InversionResult
+from ._scoring import (
+    PREDICT_MEMORY_BYTES,
+    SIGMA_FLOOR,
+    _design,
+    _normalise,
+    _score,
+    log_evidence,
+    predict_chunk_pixels,
+)
 from ._surfaces import SURFACE_MODES, SurfaceBasis, surface_candidates
-
-
-CLOSE_CALL_RATIO = 0.5
-"""A level-1 call is close when the second type is at least this fraction as
-probable as the first (e.g. 0.6 against 0.3): the answer names both."""
-
-
-def top_two(probabilities: dict) -> dict:
-    """The two most probable types of `{type: probability}` (ties in the
-    given order) and whether the call is close (`CLOSE_CALL_RATIO`): then
-    both are answers a user should weigh."""
-    order = sorted(probabilities, key=lambda k: -probabilities[k])[:2]
-    pair = [{"type": k, "probability": float(probabilities[k])} for k in order]
-    close = len(pair) == 2 and pair[1]["probability"] >= CLOSE_CALL_RATIO * max(
-        pair[0]["probability"], 1e-300
-    )
-    return {"types": pair, "close": bool(close)}
-
-
-def _finite_or_none(values, i: int) -> float | None:
-    """`values[i]` as a float, None when `values` is None or it is NaN."""
-    if values is None or not np.isfinite(values[i]):
-        return None
-    return float(values[i])
-
-
-@dataclasses.dataclass(frozen=True)
-class InversionResult:
-    """Per pixel: `estimate` (n, 3) [lm W⁻¹], [1], [K] (CCT NaN where not
-    meaningful), `interval90` (n, 3, 2), `cct_probability` (P(CCT meaningful)),
-    `unexplained` (n,), `misfit` (reduced χ², n), level-1/-2 probabilities
-    with their labels, and the predicted types (None where unexplained)."""
-
-    estimate: np.ndarray
-    interval90: np.ndarray
-    cct_probability: np.ndarray
-    unexplained: np.ndarray
-    misfit: np.ndarray
-    level1_labels: tuple[str, ...]
-    level1_probabilities: np.ndarray
-    level2_labels: tuple[str, ...]
-    level2_probabilities: np.ndarray
-    level1: tuple[str | None, ...]
-    level2: tuple[str | None, ...]
-    testable: bool
-    known_type_p: np.ndarray | None = None
-
-    def row(self, i: int) -> dict:
-        """JSON-ready result of pixel `i`: metrics null with a reason where they
-        cannot be estimated, never outside `PHYSICAL_RANGE`."""
-        est, reasons, iv = {}, {}, {}
-        for m, name in enumerate(METRICS):
-            v = float(self.estimate[i, m])
-            lo, hi = (float(x) for x in self.interval90[i, m])
-            if self.unexplained[i]:
-                est[name], iv[name] = None, None
-                reasons[name] = "unexplained: no lamp of the prior fits this pixel"
-            elif not np.isfinite(v):
-                est[name], iv[name] = None, None
-                reasons[name] = (
-                    "no meaningful CCT: the posterior favours lamps whose "
-                    f"chromaticity is > 0.05 Duv off the Planckian locus "
-                    f"(P(meaningful) = {self.cct_probability[i]:.2f})"
-                )
-            else:
-                est[name], iv[name] = v, [lo, hi]
-        return {
-            "estimate": est,
-            "interval90": iv,
-            "null_reasons": reasons,
-            "unexplained": bool(self.unexplained[i]),
-            "misfit_reduced_chi2": float(self.misfit[i]),
-            "known_type_p_value": _finite_or_none(self.known_type_p, i),
-            "level1_probabilities": {
-                k: float(p)
-                for k, p in zip(
-                    self.level1_labels, self.level1_probabilities[i], strict=True
-                )
-            },
-            "predicted_level1": self.level1[i],
-            "predicted_level2": self.level2[i],
-            "level1_top2": self.top2(i),
-        }
-
-    def top2(self, i: int) -> dict:
-        """`top_two` of pixel `i`'s level-1 probabilities."""
-        return top_two(
-            dict(zip(self.level1_labels, self.level1_probabilities[i], strict=True))
-        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -245,6 +165,7 @@ class Inversion:
         evidence=False,
         moon=None,
         floors=None,
+        shared=None,
     ):
         """Posterior over prior lamps (n, k) and reduced χ² (n,); with `sigmas`
         (S,) one of each per `σ_rel`: (n, S, k), (n, S) (`floors`: the band-
@@ -255,7 +176,10 @@ class Inversion:
         `moon` (n,): the Moon's brightness when it is known (from the time and
         place of the acquisition), relative to the conditions' Moon state
         (`Conditions.moon`: 0 moonless, 1 that state); NaN where unknown.
-        Known, it is not fitted. Default None: fitted for every pixel."""
+        Known, it is not fitted. Default None: fitted for every pixel.
+        `shared`: whether every pixel has the same surface candidates, as
+        `shared_surface` decides for a whole image of which these pixels are
+        a chunk (default None: decided from these pixels)."""
         y = np.atleast_2d(np.asarray(radiance, float))
         cand, lps = self.candidates(y.shape[0], surface)
         a, q = self.design
@@ -265,7 +189,9 @@ class Inversion:
             (len(sig),),
         )
         noise = np.column_stack([np.asarray(sig, float), fl])
-        lk, chi = _score(y, cand, lps, a, q, self.prior.log_prior, noise, moon)
+        lk, chi = _score(
+            y, cand, lps, a, q, self.prior.log_prior, noise, moon, shared=shared
+        )
         norm, post = (np.asarray(x) for x in _normalise(jnp.asarray(lk)))
         dof = np.full(y.shape[0], max(self._dof(), 1), float)
         if moon is not None:  # a known Moon amplitude is not a fitted parameter
@@ -277,7 +203,9 @@ class Inversion:
             out += (log_evidence(norm[..., 0], y, sig, fl),)
         return tuple(x[:, 0] for x in out) if sigmas is None else out
 
-    def known_type_p_value(self, radiance, surface=None, moon=None) -> np.ndarray:
+    def known_type_p_value(
+        self, radiance, surface=None, moon=None, *, shared=None
+    ) -> np.ndarray:
         """Cross-conformal, class-conditional p-value (`Vovk2015`; Mondrian
         by level-1 type, `Vovk2005` ch. 4) that each pixel's lamp is as well
         explained as a new lamp of the type it is called, (n,). Under each
@@ -296,7 +224,8 @@ class Inversion:
         pooled ranking, at 2 % and 1 % on known types).
         The final prior's own misfits are not comparable with the folds'
         (it has more lamps, so it explains every pixel better). NaN without
-        `flag_folds` (an inversion not made by `fit_inversion`)."""
+        `flag_folds` (an inversion not made by `fit_inversion`). `shared`:
+        see `posterior`."""
         y = np.atleast_2d(np.asarray(radiance, float))
         if not self.flag_folds:
             return np.full(y.shape[0], np.nan)
@@ -305,7 +234,7 @@ class Inversion:
         total = np.zeros(y.shape[0])
         for fold in self.flag_folds:
             post, mis = fold.model.posterior(
-                y, surface, [sig], moon=moon, floors=[floor]
+                y, surface, [sig], moon=moon, floors=[floor], shared=shared
             )
             post, mis = post[:, 0], mis[:, 0]
             types = [LEVEL2_PARENT.get(c, c) for c in fold.model.prior.level2]
@@ -338,21 +267,120 @@ class Inversion:
         post, _ = self.posterior(radiance, surface, moon=moon)
         return post @ self.prior.spectra
 
-    def predict(self, radiance, surface=None, moon=None) -> InversionResult:
+    def shared_surface(self, n: int, surface=None) -> bool:
+        """Whether `n` pixels with surface input `surface` (as `candidates`
+        takes it) all have the same surface candidates, so that scoring
+        runs its shared-candidate path: more than one pixel, and the same
+        candidates for each (mode 'unknown'; one class, or classes whose
+        candidates are equal; equal basis coefficients). Decided without
+        building every pixel's candidates."""
+        if n <= 1:
+            return False
+        if self.surface_mode == "unknown":
+            return True
+        if self.surface_mode == "class":
+            if surface is None or len(surface) != n:
+                return False  # `candidates` refuses it with its message
+            cands = [self.basis.class_coords(t) for t in dict.fromkeys(surface)]
+            return all(
+                c.shape == cands[0].shape and np.all(c == cands[0]) for c in cands
+            )
+        coords = None if surface is None else np.asarray(surface, float)
+        if coords is None or coords.ndim != 2 or coords.shape[0] != n:
+            return False  # `candidates` refuses it with its message
+        return bool(np.all(coords == coords[:1]))
+
+    def predict_chunk_pixels(self, memory_bytes: int = PREDICT_MEMORY_BYTES) -> int:
+        """Pixels per chunk [1] of `predict` whose posteriors fit
+        `memory_bytes` [bytes] (`predict_chunk_pixels` for this prior's size
+        and the number of band-error models `predict` scores)."""
+        return predict_chunk_pixels(
+            len(self.prior.ids), len(self._predict_noise()), memory_bytes
+        )
+
+    def _predict_noise(self) -> list:
+        """The distinct (`σ_rel`, floor) models `predict` scores, sorted."""
+        joint = (self.sigma_rel, self.sigma_floor)
+        return sorted({joint, self.flag_noise or joint, *self.metric_noise})
+
+    def predict(
+        self,
+        radiance,
+        surface=None,
+        moon=None,
+        *,
+        chunk_pixels: int | None = None,
+        memory_bytes: int = PREDICT_MEMORY_BYTES,
+    ) -> InversionResult:
         """Invert band radiances (n, b) (any brightness; `moon`: known Moon
         brightness per pixel, see `posterior`). Types, misfit and flag come
         from the posterior at `sigma_rel`, each metric from the posterior at
-        its own `metric_noise` (one scoring per distinct value)."""
+        its own `metric_noise` (one scoring per distinct value).
+
+        Pixels go in chunks of `chunk_pixels` (default: as many as fit
+        `memory_bytes` [bytes], `predict_chunk_pixels`), each reduced to its
+        estimates, intervals, probabilities and flags before the next is
+        scored: no posterior outlives its chunk, so memory does not grow
+        with `n` beyond the results. Every pixel's result is the one an
+        unchunked prediction gives (pixels are scored independently, and
+        each chunk runs the scoring path the whole input would,
+        `shared_surface`)."""
+        y = np.atleast_2d(np.asarray(radiance, float))
+        step = self._step(chunk_pixels, memory_bytes)
+        if y.shape[0] <= step:
+            return self._predict_chunk(y, surface, moon, None)
+        return InversionResult.concatenate(
+            [r for _, r in self.predict_chunks(y, surface, moon, chunk_pixels=step)]
+        )
+
+    def predict_chunks(self, radiance, surface=None, moon=None, chunk_pixels=None):
+        """`predict` one chunk at a time: yields (first pixel's index,
+        `InversionResult` of the chunk), so a caller that writes each chunk
+        out (e.g. a map, tile by tile) holds one chunk's results at a time.
+        The chunks' results are `predict`'s rows. `chunk_pixels`: default
+        `predict_chunk_pixels()`."""
+        y = np.atleast_2d(np.asarray(radiance, float))
+        n = y.shape[0]
+        step = self._step(chunk_pixels, PREDICT_MEMORY_BYTES)
+        for name, x in (("surface", surface), ("moon", moon)):
+            if x is not None and len(x) != n:
+                raise ValueError(f"{name}: {len(x)} entries for {n} pixels.")
+        shared = self.shared_surface(n, surface)
+        for i in range(0, n, step):
+            yield (
+                i,
+                self._predict_chunk(
+                    y[i : i + step],
+                    None if surface is None else surface[i : i + step],
+                    None if moon is None else moon[i : i + step],
+                    shared,
+                ),
+            )
+
+    def _step(self, chunk_pixels, memory_bytes) -> int:
+        """Pixels per chunk: `chunk_pixels`, or what fits `memory_bytes`."""
+        step = (
+            self.predict_chunk_pixels(memory_bytes)
+            if chunk_pixels is None
+            else int(chunk_pixels)
+        )
+        if step < 1:
+            raise ValueError(f"chunk_pixels must be >= 1 (got {chunk_pixels}).")
+        return step
+
+    def _predict_chunk(self, y, surface, moon, shared) -> InversionResult:
+        """`predict` of one chunk of pixels `y` (n, b) (`shared`: see
+        `posterior`)."""
         joint = (self.sigma_rel, self.sigma_floor)
         flag = self.flag_noise or joint
-        noise = sorted({joint, flag, *self.metric_noise})
-        p_known = self.known_type_p_value(radiance, surface, moon)
+        noise = self._predict_noise()
+        p_known = self.known_type_p_value(y, surface, moon, shared=shared)
         if len(noise) == 1:
-            post, misfit = self.posterior(radiance, surface, moon=moon)
+            post, misfit = self.posterior(y, surface, moon=moon, shared=shared)
             return _result(self, post, misfit, p_known=p_known)
         posts, misfits = self.posterior(
-            radiance, surface, [n[0] for n in noise], moon=moon,
-            floors=[n[1] for n in noise],
+            y, surface, [n[0] for n in noise], moon=moon,
+            floors=[n[1] for n in noise], shared=shared,
         )  # fmt: skip
         j = noise.index(joint)
         by_metric = [posts[:, noise.index(x)] for x in self.metric_noise]

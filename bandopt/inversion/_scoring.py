@@ -298,6 +298,54 @@ larger priors (e.g. with `mixture_lamps`) get proportionally fewer pixels
 per call (`_chunk`), so memory stays bounded."""
 
 
+PREDICT_MEMORY_BYTES = 128 * 2**20
+"""Default budget [bytes] of the posteriors of one chunk of
+`Inversion.predict` (`predict_chunk_bytes`): pixels are predicted in chunks
+that fit it, so peak memory does not grow with the pixel count. The compiled
+calls add their own temporaries, bounded independently of the pixel count
+(`SHARED_CHUNK`, `CHUNK` and `_chunk`'s rows for scoring, `METRIC_ROWS` rows
+for the posterior metrics)."""
+
+
+def _score_rows(k: int) -> int:
+    """Most pixels one compiled scoring call takes for a prior of `k` lamps,
+    either path: a call's input is padded up to a multiple of it."""
+    kp = -(-k // K_BUCKET) * K_BUCKET
+    return max(_chunk(CHUNK, kp), _chunk(SHARED_CHUNK, kp))
+
+
+def predict_chunk_bytes(k: int, n_noise: int, n_pixels: int) -> int:
+    """Bytes [bytes] that bound the posterior-sized arrays alive at once when
+    `n_pixels` pixels are scored against a prior of `k` lamps under `n_noise`
+    band-error models (float64, (S, k) per pixel each). While scoring: the
+    compiled calls' log weights and their concatenation, padded to
+    `K_BUCKET` lamps and to a multiple of `_score_rows` pixels (fewer than
+    `n_pixels + _score_rows(k)`); while normalising: that concatenation,
+    its unpadded copy, one temporary of the log-sum-exp and the posterior.
+    The sum of both stages bounds each. Everything later in a prediction
+    (posterior metrics, types, flag) holds less per pixel."""
+    if k < 1 or n_noise < 1 or n_pixels < 0:
+        raise ValueError(
+            f"k ({k}) and n_noise ({n_noise}) must be >= 1, n_pixels ({n_pixels}) >= 0."
+        )
+    kp = -(-k // K_BUCKET) * K_BUCKET
+    padded = n_pixels + _score_rows(k) - 1
+    return 8 * n_noise * (2 * kp * padded + 3 * k * n_pixels)
+
+
+def predict_chunk_pixels(
+    k: int, n_noise: int, memory_bytes: int = PREDICT_MEMORY_BYTES
+) -> int:
+    """Most pixels [1] whose posterior-sized arrays (`predict_chunk_bytes`)
+    fit `memory_bytes` [bytes]; at least 1 (then one pixel's own arrays
+    are the bound)."""
+    if memory_bytes <= 0:
+        raise ValueError(f"memory_bytes must be > 0 (got {memory_bytes}).")
+    fixed = predict_chunk_bytes(k, n_noise, 0)
+    per_pixel = predict_chunk_bytes(k, n_noise, 1) - fixed
+    return max(1, (int(memory_bytes) - fixed) // per_pixel)
+
+
 def _chunk(base: int, k: int) -> int:
     """Pixels per compiled call for a prior of `k` lamps: `base` up to
     `CHUNK_PRIOR` lamps, then halved until `base·CHUNK_PRIOR/k` (at least 8)."""
@@ -307,11 +355,15 @@ def _chunk(base: int, k: int) -> int:
     return c
 
 
-def _score(y, cand, log_ps, a, q, log_pk, noise, moon_b=None):
+def _score(y, cand, log_ps, a, q, log_pk, noise, moon_b=None, shared=None):
     """Chunked, padded `_score_chunk`: (log evidence (n, S, k), χ² (n, S));
     `noise (S, 2)`: (`σ_rel`, floor) per band-error model.
     `moon_b` (n,): known Moon amplitudes (relative to `q`'s Moon state; NaN:
-    fitted), or None (all fitted)."""
+    fitted), or None (all fitted). `shared`: whether every pixel has the
+    same surface candidates (`_score_chunk_shared` runs; the caller vouches
+    for it); None: decided from these pixels (more than one, all the same), so
+    a caller that splits an image into chunks passes the whole image's answer
+    and every chunk, even of one pixel, runs the path the whole image would."""
     noise = np.asarray(noise, float)
     if noise.ndim != 2 or noise.shape[1] != 2:
         raise ValueError(
@@ -344,7 +396,11 @@ def _score(y, cand, log_ps, a, q, log_pk, noise, moon_b=None):
         return np.concatenate([x, np.full((pad, *x.shape[1:]), fill)])
 
     cand = np.asarray(cand, float)
-    if n > 1 and np.all(cand == cand[:1]) and np.all(log_ps == log_ps[:1]):
+    if shared is None:
+        shared = bool(
+            n > 1 and np.all(cand == cand[:1]) and np.all(log_ps == log_ps[:1])
+        )
+    if shared:
         # one set of surface candidates for every pixel (mode 'unknown')
         p = jnp.einsum("kabr,sr->ksab", jnp.asarray(a), jnp.asarray(cand[0]))
         qq = None if q is None else jnp.einsum("abr,sr->sab", q, cand[0])[None]
