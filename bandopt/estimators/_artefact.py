@@ -216,7 +216,7 @@ _READ_ERRORS = (OSError, EOFError, zipfile.BadZipFile, ValueError, KeyError)
 def read_fingerprint(path) -> dict:
     """The fingerprint stored in model file `path`."""
     try:
-        with np.load(path, allow_pickle=False) as npz:
+        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as npz:
             return _header(npz, path)["fingerprint"]
     except ModelFileError:
         raise
@@ -229,7 +229,7 @@ def load_fitted(path, expected: dict | None = None):
     `expected` (None: unchecked). Raises `FingerprintMismatchError` or
     `ModelFileError` (both `ValueError`) naming the file."""
     try:
-        with np.load(path, allow_pickle=False) as npz:
+        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as npz:
             header = _header(npz, path)
             if expected is not None:
                 check_fingerprint(path, header["fingerprint"], expected)
