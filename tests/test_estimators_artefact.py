@@ -19,6 +19,7 @@ from bandopt.estimators import (
     FingerprintMismatchError,
     ModelFileError,
     Surface,
+    _artefact,
     cache_dir,
     configure,
     fingerprint,
@@ -27,7 +28,6 @@ from bandopt.estimators import (
     read_fingerprint,
     save_fitted,
 )
-from bandopt.estimators import _artefact
 from bandopt.estimators._serial import decode, encode
 from bandopt.search import get_context
 from bandopt.sensor import BandSet
@@ -36,33 +36,35 @@ from .test_estimators import BANDS, SMALL
 
 
 @pytest.fixture(scope="module")
-def ctx():
-    return get_context("tiny", None, 0, "none")
-
-
-@pytest.fixture(scope="module")
-def fitted(ctx):
-    return {
-        name: configure(name, **SMALL.get(name, {})).fit(
-            ctx, BANDS, surface_mode="unknown"
-        )
-        for name in ESTIMATORS
-    }
-
-
-@pytest.fixture(scope="module")
-def pixels(ctx):
-    """Every third pixel of the tiny set, the surface unknown."""
+def tiny():
+    """The tiny scenario set, every registered estimator fitted on it with
+    `SMALL`'s quick options, and every third of its pixels with the surface
+    unknown: (context, fitted by name, radiance, surface)."""
+    ctx = get_context("tiny", None, 0, "none")
+    fits = {}
+    for name in ESTIMATORS:
+        config = configure(name, **SMALL.get(name, {}))
+        fits[name] = config.fit(ctx, BANDS, surface_mode="unknown")
     rows = np.arange(0, ctx.table.lamp_of.size, 3)
-    refl = inv_mod.surface_basis(ctx.wavelength_nm).mean
-    return ctx.radiance(BANDS)[rows], Surface("unknown", None, refl)
+    surface = Surface("unknown", None, inv_mod.surface_basis(ctx.wavelength_nm).mean)
+    return ctx, fits, ctx.radiance(BANDS)[rows], surface
+
+
+@pytest.fixture(scope="module")
+def fitted(tiny):
+    return tiny[1]
+
+
+@pytest.fixture(scope="module")
+def pixels(tiny):
+    return tiny[2:]
 
 
 @pytest.fixture
-def tiny_context(ctx, monkeypatch):
+def tiny_context(tiny, monkeypatch):
     """`fit_cached` (and so the CLI) trains on the tiny scenario set: a fit
     in a second, not a minute (the fingerprint still names evaluate's)."""
-    monkeypatch.setattr(_artefact, "get_context", lambda *a: ctx)
+    monkeypatch.setattr(_artefact, "get_context", lambda *a: tiny[0])
 
 
 def _fp(name="inversion", bands=BANDS, **options):
@@ -87,9 +89,7 @@ def _leaves(x) -> tuple[object, list]:
 
 
 @pytest.mark.parametrize("name", list(ESTIMATORS))
-def test_a_loaded_estimator_is_the_fitted_one_field_for_field(
-    name, fitted, tmp_path
-):
+def test_a_loaded_estimator_is_the_fitted_one_field_for_field(name, fitted, tmp_path):
     path = save_fitted(tmp_path / f"{name}.npz", fitted[name], _fp(name))
     loaded = load_fitted(path, _fp(name))
     assert type(loaded) is type(fitted[name])
@@ -246,7 +246,7 @@ def test_a_stale_or_corrupt_cache_entry_is_refitted_and_replaced(
     rad, surface = pixels
     assert _same(est.predict(rad, surface), fitted["inversion"].predict(rad, surface))
     assert read_fingerprint(path) == fp  # replaced
-    again, o2 = fit_cached(config, BANDS, surface_mode="unknown")
+    _, o2 = fit_cached(config, BANDS, surface_mode="unknown")
     assert o2.action == "loaded"
 
 

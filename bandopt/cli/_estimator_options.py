@@ -254,6 +254,14 @@ def obtain_fitted(args, bands, config, mode):
     return fitted, outcome.fingerprint
 
 
+def _count_option(p, flag: str, default: int, text: str) -> None:
+    """A count option (an int >= 0, metavar N) of the fit."""
+    p.add_argument(
+        flag, type=bounded(int, lo=0, why="(a count)"), default=default,
+        metavar="N", help=text,
+    )  # fmt: skip
+
+
 def add_estimator_options(p):
     """The options a fit depends on, shared by `bandopt fit` and `bandopt
     evaluate`: the band set, the estimator and its options, the user's prior
@@ -289,36 +297,33 @@ def add_estimator_options(p):
         "(results/estimate_bands), with 90 %% intervals calibrated on the library "
         "lamps",
     )
-    p.add_argument(
+    _count_option(
+        p,
         "--modelled-per-class",
-        type=bounded(int, lo=0, why="(a count)"),
-        default=0,
-        metavar="N",
-        help="inversion only: also put N modelled lamps per rare class (lps, "
+        0,
+        "inversion only: also put N modelled lamps per rare class (lps, "
         "mercury, led_amber, metal_halide, hps; physical lamp models of "
         "bandopt.lampmodels calibrated on the measured training lamps of each "
         "fit only) into the prior; they train, never score. Default 0: measured "
         "lamps only. The first use fits the models to their measured lamps "
         "(several minutes); the JSON says modelled_lamps_used",
     )
-    p.add_argument(
+    _count_option(
+        p,
         "--mixtures",
-        type=bounded(int, lo=0, why="(a count)"),
-        default=MIXTURES_DEFAULT,
-        metavar="N",
-        help="inversion only: also put pairwise blends of two measured library "
+        MIXTURES_DEFAULT,
+        "inversion only: also put pairwise blends of two measured library "
         "lamps of one class (flux fractions 1/4, 1/2, 3/4) into the prior, up to "
         f"N pairs per class (default {MIXTURES_DEFAULT}; 0: measured lamps only). "
         "They fill the gaps between the library's lamps; their LER, G and CCT "
         "are computed from the blended spectra, so still physical "
         "(results/estimate_mix)",
     )
-    p.add_argument(
+    _count_option(
+        p,
         "--cross-mixtures",
-        type=bounded(int, lo=0, why="(a count)"),
-        default=CROSS_MIXTURES_DEFAULT,
-        metavar="N",
-        help="inversion only: also put blends of two lamps of different types "
+        CROSS_MIXTURES_DEFAULT,
+        "inversion only: also put blends of two lamps of different types "
         "(the second giving 10, 25 or 40 %% of the light, named by the first) "
         "into the prior, N lamp pairs per pair of types (default "
         f"{CROSS_MIXTURES_DEFAULT}; 0: none), as a pixel holding two lamp types "
