@@ -12,6 +12,7 @@ import zipfile
 import numpy as np
 import pytest
 
+import bandopt.search
 from bandopt import inversion as inv_mod
 from bandopt.cli import main
 from bandopt.estimators import (
@@ -64,7 +65,7 @@ def pixels(tiny):
 def tiny_context(tiny, monkeypatch):
     """`fit_cached` (and so the CLI) trains on the tiny scenario set: a fit
     in a second, not a minute (the fingerprint still names evaluate's)."""
-    monkeypatch.setattr(_artefact, "get_context", lambda *a: tiny[0])
+    monkeypatch.setattr(bandopt.search, "get_context", lambda *a: tiny[0])
 
 
 def _fp(name="inversion", bands=BANDS, **options):

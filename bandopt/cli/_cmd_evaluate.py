@@ -113,7 +113,9 @@ def run(args) -> int:
     prior_files, prior_loaded = read_prior_lamps(args, warnings)
     grid = np.asarray(GRID_1NM, float)
     refl, surface_label, mode, knowledge = surface_of(args, grid)
-    fitted, _ = obtain_fitted(args, bands, config, mode)
+    fitted, _ = obtain_fitted(
+        args, bands, config, mode, lambda ctx: _fit(args, ctx, bands, mode)
+    )
     desc, rep = fitted.description, fitted.report()
     e_lx = class_illuminance_lx(SCENE["lighting_class"])
     vis = (grid >= 380) & (grid <= 780)

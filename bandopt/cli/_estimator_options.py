@@ -225,11 +225,11 @@ def read_prior_lamps(args, warnings: list):
     return prior_files, prior_loaded
 
 
-def obtain_fitted(args, bands, config, mode):
+def obtain_fitted(args, bands, config, mode, fit=None):
     """(fitted estimator, its fingerprint) for the options: read from
     `--model` when given (refused when its fingerprint differs), else
-    loaded from the cache or fitted and cached
-    (`bandopt.estimators.fit_cached`); a note on stderr says which."""
+    loaded from the cache or fitted (by `fit(ctx)`, default `fit_on`) and
+    cached (`bandopt.estimators.fit_cached`); a note on stderr says which."""
     import sys
     from pathlib import Path
 
@@ -242,7 +242,13 @@ def obtain_fitted(args, bands, config, mode):
             raise ValueError(f"--model {model}: no such file.")
         fp = fingerprint(config, bands, surface_mode=mode, own=own)
         return load_fitted(model, fp), fp
-    fitted, outcome = fit_cached(config, bands, surface_mode=mode, own=own)
+    fitted, outcome = fit_cached(
+        config,
+        bands,
+        surface_mode=mode,
+        own=own,
+        fit=fit or (lambda ctx: fit_on(args, ctx, bands, mode)),
+    )
     text = {
         "loaded": f"estimator loaded from the cache ({outcome.path})",
         "fitted": f"estimator fitted and cached ({outcome.path})",

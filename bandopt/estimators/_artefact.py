@@ -34,10 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from .. import __version__, search
 from ..forward import band_weights_on
 from ..provenance import data_versions, git_commit, source_hash
-from ..search import get_context
 from ..spectra import GRID_1NM
 from ._serial import decode, encode
 
@@ -284,19 +283,25 @@ def fit_cached(
     surface_mode: str,
     own=None,
     context: tuple = EVALUATE_CONTEXT,
+    fit=None,
 ):
     """(`config` fitted on `bands` as `config.fit` does on the scenes of
     `search.get_context(*context)`, `CacheOutcome`): loaded from the cache
     when an entry with the same fingerprint is there, else fitted and
-    stored. A stale or unreadable entry is refitted and replaced."""
+    stored. A stale or unreadable entry is refitted and replaced. `fit`
+    (context -> fitted estimator): how to fit when fitting, for a caller
+    that wraps `config.fit`; it must fit what the fingerprint describes."""
     fp = fingerprint(config, bands, surface_mode=surface_mode, own=own, context=context)
+    if fit is None:
 
-    def fit():
-        ctx = get_context(*context)
-        return config.fit(ctx, bands, surface_mode=surface_mode, own=own)
+        def fit(ctx):
+            return config.fit(ctx, bands, surface_mode=surface_mode, own=own)
+
+    def fit_now():
+        return fit(search.get_context(*context))
 
     if not cache_enabled():
-        return fit(), CacheOutcome("uncached", None, fp, "BANDOPT_NO_CACHE is set")
+        return fit_now(), CacheOutcome("uncached", None, fp, "BANDOPT_NO_CACHE is set")
     path = cache_path(fp)
     action, reason = "fitted", ""
     if path.exists():
@@ -306,7 +311,7 @@ def fit_cached(
             action, reason = "refitted", f"stale: {', '.join(exc.fields)} differ"
         except ModelFileError as exc:
             action, reason = "refitted", f"unreadable: {exc}"
-    fitted = fit()
+    fitted = fit_now()
     try:
         save_fitted(path, fitted, fp)
     except OSError as exc:
