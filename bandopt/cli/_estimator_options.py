@@ -252,8 +252,8 @@ def obtain_fitted(args, bands, config, mode, fit=None):
     text = {
         "loaded": f"estimator loaded from the cache ({outcome.path})",
         "fitted": f"estimator fitted and cached ({outcome.path})",
-        "refitted": f"cached estimator {outcome.path} {outcome.reason}: refitted "
-        "and replaced",
+        "refitted": f"the cached estimator {outcome.reason}: refitted and "
+        f"replaced ({outcome.path})",
         "uncached": f"estimator fitted, not cached ({outcome.reason})",
     }[outcome.action]
     print(f"note: {text}", file=sys.stderr)

@@ -308,9 +308,9 @@ def fit_cached(
         try:
             return load_fitted(path, fp), CacheOutcome("loaded", path, fp)
         except FingerprintMismatchError as exc:
-            action, reason = "refitted", f"stale: {', '.join(exc.fields)} differ"
+            action, reason = "refitted", f"was stale (other {', '.join(exc.fields)})"
         except ModelFileError as exc:
-            action, reason = "refitted", f"unreadable: {exc}"
+            action, reason = "refitted", f"was unreadable ({exc})"
     fitted = fit_now()
     try:
         save_fitted(path, fitted, fp)
