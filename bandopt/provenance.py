@@ -93,6 +93,25 @@ def data_versions() -> dict:
     return out
 
 
+def source_hash() -> str:
+    """Content hash of bandopt's code: every file of the package except the
+    data files that `data_versions` hashes and compiled bytecode, so any
+    edit of the code changes it, with or without git."""
+    root = Path(__file__).parent
+    data = root / "datasets" / "data"
+    h = hashlib.sha256()
+    for f in sorted(root.rglob("*")):
+        if (
+            f.is_file()
+            and f.suffix not in (".pyc", ".pyo")
+            and data not in f.parents
+            and "__pycache__" not in f.parts
+        ):
+            h.update(f.relative_to(root).as_posix().encode() + b"\0")
+            h.update(f.read_bytes())
+    return h.hexdigest()[:16]
+
+
 def lamp_library_info() -> dict:
     """Which lamp sets the library was built from (spectra per set; the LSPDD
     is switchable) and whether the spectra carry the near-infrared extension."""

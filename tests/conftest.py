@@ -22,3 +22,11 @@ def shared_dir():
     if not path.is_dir():
         pytest.skip("../shared is not beside this checkout")
     return path
+
+
+@pytest.fixture(autouse=True)
+def _model_cache(tmp_path_factory, monkeypatch):
+    """Each test's fitted-estimator cache in its own fresh folder: a test
+    never reads a fit another test stored (one may have monkeypatched the
+    fit) and never writes into the user's cache."""
+    monkeypatch.setenv("BANDOPT_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))

@@ -689,7 +689,7 @@ def test_evaluate_prints_the_prior_class_warning(tmp_path, capsys, monkeypatch):
     def stop(*a, **kw):
         raise ValueError("stopped before training (test)")
 
-    monkeypatch.setattr(_cmd_evaluate, "_fit", stop)
+    monkeypatch.setattr(_cmd_evaluate, "obtain_fitted", stop)
     lamp = _csv(tmp_path / "led.csv", _warm_led())
     blue = _csv(tmp_path / "blue.csv", _line(450.0))
     argv = ["evaluate", "--bands", "sdgsat-1", "--lamps", str(lamp)]

@@ -13,19 +13,40 @@ estimators that do. `bandopt evaluate` and the studies take their
 estimators from here; `tests/test_estimators.py` checks every registered
 one against the contract (as scikit-learn's `estimator_checks` does).
 
+A fitted estimator is an artefact: `save_fitted` writes it with the
+fingerprint of what it depends on (bands, configuration, data, code),
+`load_fitted` refuses one whose fingerprint differs, and `fit_cached` fits
+once per fingerprint and loads it afterwards (`bandopt fit`, `bandopt
+evaluate --model`).
+
 `variant(label)` is the inversion's configuration of a named variant (the
 studies' estimators).
 
 - `_contract`: `Estimates`, `Surface` and the protocols;
 - `_inversion`: the shipped physics-based inversion (`InversionConfig`,
   `fit_on_context`);
-- `_baselines`: the regression baselines and the direct estimate.
+- `_baselines`: the regression baselines and the direct estimate;
+- `_artefact`: a fitted estimator as a fingerprinted file (`save_fitted`,
+  `load_fitted`) and the user's cache of them (`fit_cached`); `_serial`
+  turns a fitted estimator into JSON and arrays and back.
 """
 
 import dataclasses
 
 from ..inversion import options_of as inversion_options_of
 from ..names import CanonicalMapping
+from ._artefact import (
+    EVALUATE_CONTEXT as EVALUATE_CONTEXT,
+    CacheOutcome as CacheOutcome,
+    FingerprintMismatchError as FingerprintMismatchError,
+    ModelFileError as ModelFileError,
+    cache_dir as cache_dir,
+    fingerprint as fingerprint,
+    fit_cached as fit_cached,
+    load_fitted as load_fitted,
+    read_fingerprint as read_fingerprint,
+    save_fitted as save_fitted,
+)
 from ._baselines import (
     DirectConfig as DirectConfig,
     FittedDirect as FittedDirect,
