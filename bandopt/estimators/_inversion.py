@@ -123,14 +123,32 @@ class FittedInversion:
         """Pixels of `bandopt evaluate`'s moonless scene, which the inversion
         is told is moonless; the surface as `surface` says."""
         n = len(radiance)
-        if surface.mode == "class":
-            know = [surface.name] * n
-        elif surface.mode == "measured":
-            know = np.repeat(self.basis.coords(surface.reflectance[None]), n, axis=0)
-        else:
-            know = None
-        res = self.model.predict(radiance, know, moon=np.zeros(n))
+        res = self.model.predict(
+            radiance, self.surface_input(surface, n), moon=np.zeros(n)
+        )
         return Estimates.from_rows([res.row(i) for i in range(n)])
+
+    def surface_input(self, surface: Surface, n: int):
+        """What the inversion is told of `n` pixels' surface (`Inversion.
+        posterior`'s `surface`): None (unknown), the type per pixel, or the
+        measured reflectance's basis coefficients per pixel."""
+        if surface.mode == "class":
+            return [surface.name] * n
+        if surface.mode == "measured":
+            return np.repeat(self.basis.coords(surface.reflectance[None]), n, axis=0)
+        return None
+
+    def predict_chunks(self, radiance, surface: Surface, chunk_pixels=None):
+        """`predict` for many pixels in bounded memory: yields (first pixel's
+        index, `inversion.InversionResult` of a chunk) as
+        `Inversion.predict_chunks` does, for the same moonless scene."""
+        n = len(radiance)
+        yield from self.model.predict_chunks(
+            radiance,
+            self.surface_input(surface, n),
+            moon=np.zeros(n),
+            chunk_pixels=chunk_pixels,
+        )
 
     def report(self) -> dict:
         """The prior's and the intervals' fields of the evaluate JSON."""

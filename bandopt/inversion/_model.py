@@ -290,6 +290,14 @@ class Inversion:
             return False  # `candidates` refuses it with its message
         return bool(np.all(coords == coords[:1]))
 
+    def type_labels(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
+        """The level-1 and level-2 labels of `predict`'s probabilities (its
+        `InversionResult.level1_labels`, `level2_labels`): the prior's
+        level-2 classes sorted, their level-1 parents in `LEVEL1` order."""
+        l2 = sorted(set(self.prior.level2))
+        parents = {LEVEL2_PARENT.get(c, c) for c in l2}
+        return tuple(c for c in LEVEL1 if c in parents), tuple(l2)
+
     def predict_chunk_pixels(self, memory_bytes: int = PREDICT_MEMORY_BYTES) -> int:
         """Pixels per chunk [1] of `predict` whose posteriors fit
         `memory_bytes` [bytes] (`predict_chunk_pixels` for this prior's size
@@ -457,11 +465,10 @@ def _result(
         )
     else:
         p_known = np.full(unexplained.shape, np.nan)
-    l2 = sorted(set(inv.prior.level2))
+    l1, l2 = (list(x) for x in inv.type_labels())
     m2 = np.array([[x == c for c in l2] for x in inv.prior.level2], float)
     p2 = post @ m2
     parents = [LEVEL2_PARENT.get(c, c) for c in l2]
-    l1 = [c for c in LEVEL1 if c in parents]
     p1 = p2 @ np.array([[p == c for c in l1] for p in parents], float)
     if inv.level1_temperature != 1.0 or inv.level2_temperature != 1.0:
         # calibrated (fit_inversion(calibrate_probabilities=True)): each
