@@ -87,7 +87,28 @@ def register(subparsers):
         "isolated (direct only) or uniform (total transmittance per pixel); "
         "only with --atmosphere",
     )
+    p.add_argument(
+        "--geotiff",
+        action="store_true",
+        help="also write per GSD a GeoTIFF of the TOA image (<stem>_toa.tif, "
+        "float32, one band per band-set band, north up) and the truth map "
+        "(<stem>_truth.tif: code of the lamp type giving most of each pixel's "
+        "radiance, its share; codes in <stem>_truth.json), the input and the "
+        "check of `bandopt map`",
+    )
+    p.add_argument(
+        "--geo-origin",
+        nargs=3,
+        default=list(GEO_ORIGIN),
+        metavar=("CRS", "EASTING", "NORTHING"),
+        help="where --geotiff puts the scene: a projected CRS in metres and the "
+        "map coordinates of its x = 0, y = 0 (x east, y north)",
+    )
     p.set_defaults(func=run, field_options=FIELD_OPTIONS)
+
+
+GEO_ORIGIN = ("EPSG:32632", "691000", "5335000")
+"""Default `--geo-origin`: UTM zone 32N, Munich (the thesis' scenes)."""
 
 
 def _bands(source: str):
@@ -110,9 +131,9 @@ def check_lamps_inside(layout) -> None:
 
 
 BYTES_PER_PIXEL_PER_IMAGE = 8
-"""float64 images; the renderer holds about `n_bands + 2 n_lamp_types + 4`
-images of the fine grid at once (illuminance and uplight per lamp type,
-band radiance, surface index, sums)."""
+"""float64 images; the renderer holds about `n_bands + 3 n_lamp_types + 4`
+images of the fine grid at once (illuminance, uplight and radiance per lamp
+type, band radiance, surface index, sums)."""
 
 
 def _available_bytes() -> int | None:
@@ -132,7 +153,7 @@ def check_memory(layout, dx_m: float, n_bands: int) -> None:
     nx = max(1, round(layout.length_m / dx_m))
     ny = max(1, round(layout.width_m / dx_m))
     n_types = len({p.lamp for p in layout.lamps})
-    need = nx * ny * BYTES_PER_PIXEL_PER_IMAGE * (n_bands + 2 * n_types + 4)
+    need = nx * ny * BYTES_PER_PIXEL_PER_IMAGE * (n_bands + 3 * n_types + 4)
     avail = _available_bytes()
     limit = avail // 2 if avail else 8 * 2**30
     if need > limit:
@@ -223,6 +244,8 @@ def _render(args, layout, bands, atmosphere, out) -> int:
         stem = f"{layout.name}_gsd{g:g}m"
         with atomic_path(out / f"{stem}.tif") as tmp:
             _write_tiff(tmp, obs.image, obs.grid)
+        if args.geotiff:
+            _write_geotiffs(out, stem, scene, obs, args)
         with atomic_path(out / f"{stem}.png") as tmp:
             _plot(tmp, obs, truth, f"{layout.name}, GSD {g:g} m", scene.band_names)
         rows.append(
@@ -278,6 +301,7 @@ def _write_tiff(path, image, grid):
     tifffile.imwrite(
         path,
         np.asarray(image, np.float32),
+        photometric="minisblack",  # bands of radiance, never RGB
         metadata={
             "unit": "W m-2 sr-1 nm-1",
             "gsd_m": grid.dx_m,
@@ -286,6 +310,60 @@ def _write_tiff(path, image, grid):
             "axes": "band,y,x",
         },
     )
+
+
+def _geo(args, grid):
+    """(CRS, affine transform) of a north-up GeoTIFF of `grid` at `--geo-origin`."""
+    from affine import Affine
+    from rasterio.crs import CRS
+
+    crs, e0, n0 = args.geo_origin
+    try:
+        crs, e0, n0 = CRS.from_user_input(crs), float(e0), float(n0)
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"--geo-origin {' '.join(args.geo_origin)}: {exc}") from None
+    top = n0 + grid.y0_m + grid.ny * grid.dx_m
+    return crs, Affine(grid.dx_m, 0.0, e0 + grid.x0_m, 0.0, -grid.dx_m, top)
+
+
+def _write_geotiffs(out, stem, scene, obs, args) -> None:
+    """`<stem>_toa.tif`, `<stem>_truth.tif` and `<stem>_truth.json` (see
+    `--geotiff`); the truth is each lamp type's radiance through the same PSF
+    and box average as the image, without noise."""
+    import numpy as np
+
+    from ..datasets.lamps import library
+    from ..spatial import psf_sigma_m, resample_to_gsd
+    from ._map_raster import write_geotiff
+    from ._output import atomic_path, atomic_write_json
+
+    crs, transform = _geo(args, obs.grid)
+    with atomic_path(out / f"{stem}_toa.tif") as tmp:
+        write_geotiff(tmp, obs.image[:, ::-1], crs, transform, scene.band_names)
+    sigma = psf_sigma_m(obs.gsd_m, mtf_nyquist=args.mtf_nyquist)
+    by_type = resample_to_gsd(scene.type_radiance, scene.grid.dx_m, obs.gsd_m,
+                              sigma_m=sigma)  # fmt: skip
+    total = by_type.sum(0)
+    lit = total > 0
+    code = np.where(lit, np.argmax(by_type, 0), -1).astype(float)
+    share = np.where(lit, by_type.max(0) / np.where(lit, total, 1.0), np.nan)
+    with atomic_path(out / f"{stem}_truth.tif") as tmp:
+        write_geotiff(
+            tmp, np.stack([code, share])[:, ::-1], crs, transform,
+            ("lamp type code (-1: unlit)", "share of the pixel's radiance [1]"),
+            nodata=-1.0,
+        )  # fmt: skip
+    recs = {r.id: r for r in library().records}
+    atomic_write_json(out / f"{stem}_truth.json", {
+        "codes": {
+            i: {"lamp": t, "level1": recs[t].level1, "level2": recs[t].level2}
+            if t in recs else {"lamp": t, "level1": None, "level2": None}
+            for i, t in enumerate(scene.lamps.lamp_types)
+        },
+        "unlit": -1,
+        "share": "the type's part of the pixel's band-summed radiance (its own "
+        "light: ground and uplight, no adjacency term, no noise)",
+    })  # fmt: skip
 
 
 def _plot(path, obs, truth, title, band_names=()):

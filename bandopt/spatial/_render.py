@@ -461,6 +461,9 @@ class SceneImage:
     - `radiance`: (b, ny, nx) TOA band-averaged radiance. [W m⁻² sr⁻¹ nm⁻¹]
     - `illuminance_lx`: (ny, nx) total ground illuminance. [lx]
     - `grid`, `surface_idx`, `lamps` (with resolved flux), `band_names`, `layout`.
+    - `type_radiance`: (t, ny, nx) each lamp type's share of `radiance` summed
+      over the bands (`lamps.lamp_types` order; the pixel's own light, without
+      the adjacency term): which lamp lights each pixel. [W m⁻² sr⁻¹ nm⁻¹]
     """
 
     radiance: np.ndarray
@@ -471,6 +474,7 @@ class SceneImage:
     band_names: tuple[str, ...]
     layout: Layout
     config: dict
+    type_radiance: np.ndarray | None = None
 
 
 def render(
@@ -517,13 +521,13 @@ def render(
             atmosphere=atmosphere,
             part=part,
         )
-        return radiance_image(e, up, sidx, kg, ku), kg
+        return radiance_image(e, up, sidx, kg, ku), (kg, ku)
 
     if atmosphere is None or hood.is_uniform:
-        rad, kg = through("total")
+        rad, (kg, ku) = through("total")
         adjacency = "uniform neighbourhood (total transmittance)"
     else:
-        rad, kg = through("direct")
+        rad, (kg, ku) = through("direct")
         diffuse, _ = through("diffuse")
         rad = rad + hood.lamp_factor * jnp.mean(diffuse, axis=(1, 2), keepdims=True)
         adjacency = (
@@ -540,6 +544,23 @@ def render(
         "neighbourhood": hood.to_dict(),
         "view": "nadir",
     }
+    by_type = np.stack(
+        [
+            np.asarray(
+                radiance_image(e[t : t + 1], up[t : t + 1], sidx, kg[t : t + 1],
+                               ku[t : t + 1])
+            ).sum(0)
+            for t in range(len(lamps.lamp_types))
+        ]
+    )  # fmt: skip
     return SceneImage(
-        np.asarray(rad), np.asarray(e).sum(0), grid, sidx, lamps, names, layout, config
+        np.asarray(rad),
+        np.asarray(e).sum(0),
+        grid,
+        sidx,
+        lamps,
+        names,
+        layout,
+        config,
+        by_type,
     )
