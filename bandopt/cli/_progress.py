@@ -115,3 +115,36 @@ def phase(label: str, key: str, *, expected_s: float | None = None, stream=None)
     elapsed = time.perf_counter() - t0
     if elapsed >= FIRST_REPORT_S:  # only phases worth a progress line
         record_duration(key, elapsed)
+
+
+class Steps:
+    """Progress of a phase made of `total` equal steps (tiles of a map):
+    `step(done)` prints `label: done of total, 5 s elapsed, about 20 s left`
+    to stderr at most every `EVERY_S` (first after `FIRST_REPORT_S`), the
+    time left from the rate of the steps done in this run (steps skipped on
+    resuming do not count). Silent unless `enabled()`."""
+
+    def __init__(self, label: str, total: int, *, skipped: int = 0, stream=None):
+        self.label, self.total, self.skipped = label, int(total), int(skipped)
+        self.stream = sys.stderr if stream is None else stream
+        self.t0 = time.perf_counter()
+        self.next_s = FIRST_REPORT_S
+        self.on = enabled()
+
+    def step(self, done: int) -> None:
+        el = time.perf_counter() - self.t0
+        if not self.on or el < self.next_s:
+            return
+        self.next_s = el + EVERY_S
+        ran = done - self.skipped
+        left = (
+            f"about {_fmt(el / ran * (self.total - done))} left"
+            if ran > 0
+            else "time left unknown (no step finished yet)"
+        )
+        with contextlib.suppress(OSError, ValueError):
+            print(
+                f"[{self.label}] {done} of {self.total}, {_fmt(el)} elapsed, {left}",
+                file=self.stream,
+                flush=True,
+            )
