@@ -27,6 +27,11 @@ road_width_m = 7.0
 length_m = 160.0
 width_m = 40.0
 
+[surfaces]
+road = "asphalt"
+sidewalk = "asphalt"
+verge = "asphalt"
+
 [[lamp]]
 x_m = 20.0
 y_m = 4.5
@@ -41,7 +46,9 @@ mounting_height_m = 8.0
 lamp = "cie_led_b3"
 flux_lm = 10000.0
 """
-"""An HPS and an LED lamp at one end of a 160 m road: the far end is dark."""
+"""An HPS and an LED lamp at one end of a 160 m road (the far end is dark), on
+asphalt only: the tiny scenario set's estimator knows asphalt only (on the
+default grass verge it calls most LED pixels HID)."""
 
 DARK = 1e-7
 """--dark-below [W m-2 sr-1 nm-1]: above zero, below two quantisation steps of
@@ -127,11 +134,14 @@ def test_render_then_map_finds_the_lamp_types_and_masks_the_dark_road(
     dominant = (share >= 0.9) & (mask == 0)
     assert dominant.sum() >= 100
     right = np.mean(got_l1[dominant] == true_l1[dominant])
-    assert right >= 0.6, right  # a clear majority (two types: chance is ~1/5)
-    assert {"hid", "led"} <= set(true_l1[dominant])
-    # dark pixels (every band below --dark-below) are masked, nothing else is
+    assert right >= 0.7, right  # a clear majority (measured 0.81; chance ~1/5)
     with rasterio.open(toa) as src:
         rad = src.read()
+    bright = dominant & (rad.min(0) > 5 * 6.1e-8)  # every band >= 5 14-bit steps
+    assert bright.sum() >= 30
+    assert np.mean(got_l1[bright] == true_l1[bright]) >= 0.9  # measured 0.97
+    assert {"hid", "led"} <= set(true_l1[dominant])
+    # dark pixels (every band below --dark-below) are masked, nothing else is
     dark = (rad < DARK).all(0)
     assert np.array_equal(mask == 3, dark)
     road = np.abs(np.arange(10)[::-1] * 4.0 - 20.0 + 2.0) <= 3.5  # rows on the road
@@ -144,10 +154,13 @@ def test_render_then_map_finds_the_lamp_types_and_masks_the_dark_road(
     assert summary["dark"]["from"] == "--dark-below"
 
 
-def test_outputs_keep_the_georeference_and_write_a_manifest(world, tmp_path):
+def test_outputs_keep_the_georeference_and_write_a_manifest(world, tmp_path, capsys):
     _, toa, *_, model = world
     out = tmp_path / "m"
-    assert _map(toa, out, "--dark-below", f"{DARK:g}", model=model) == 0
+    assert _map(toa, out, "--dark-below", f"{DARK:g}", "--json", model=model) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert printed == json.loads((out / "map.json").read_text())
+    assert printed["image_bands"]["georeferenced"] is True
     with rasterio.open(toa) as src:
         crs, transform = src.crs, src.transform
     assert crs is not None and not transform.is_identity
@@ -226,9 +239,10 @@ def _write(path, data, *, crs="EPSG:32632", scales=None, offsets=None, nodata=No
 
 @pytest.fixture
 def patch(world):
-    """8 x 8 lamp-lit pixels of the rendered image (4 bands) [W m-2 sr-1 nm-1]."""
+    """8 x 8 pixels of the rendered image near the HPS lamp (4 bands), floored
+at one 14-bit step so that none is dark [W m-2 sr-1 nm-1]."""
     with rasterio.open(world[1]) as src:
-        return src.read()[:, :8, :8].astype(np.float64)
+        return np.maximum(src.read()[:, 1:9, :8].astype(np.float64), 6.1e-8)
 
 
 def test_wrong_band_count_is_refused_naming_the_file(world, patch, tmp_path, capsys):
@@ -328,3 +342,21 @@ def test_a_million_pixels_stay_within_one_gigabyte(world, tmp_path):
 def _read_all(path):
     with rasterio.open(path) as src:
         return src.read()
+
+
+def test_progress_says_how_many_tiles_and_the_time_left(monkeypatch):
+    import io
+
+    from bandopt.cli import _progress
+
+    monkeypatch.setenv("BANDOPT_PROGRESS", "1")
+    monkeypatch.setattr(_progress, "FIRST_REPORT_S", 0.0)
+    stream = io.StringIO()
+    steps = _progress.Steps("bandopt map: tiles", 10, skipped=4, stream=stream)
+    steps.step(4)  # only skipped tiles so far: no rate yet
+    assert "4 of 10" in stream.getvalue() and "time left unknown" in stream.getvalue()
+    steps.next_s = 0.0
+    steps.step(6)
+    assert (
+        "6 of 10" in stream.getvalue() and "left" in stream.getvalue().splitlines()[-1]
+    )

@@ -163,7 +163,10 @@ def _dark_rule(args, entry, source) -> dict:
         return {"below": args.dark_below, "from": "--dark-below"}
     limit = None if entry is None else entry.detection_limit_w_m2_sr_nm
     if limit is None and Path(source).is_file():
-        limit = json.loads(Path(source).read_text()).get("detection_limit_w_m2_sr_nm")
+        data = json.loads(Path(source).read_text())  # read by --bands already
+        limit = (
+            data.get("detection_limit_w_m2_sr_nm") if isinstance(data, dict) else None
+        )
     if limit is not None:
         return {"below": float(limit), "from": f"detection limit of --bands {source}"}
     return {"below": None, "from": "no detection limit known: no band above 0"}
