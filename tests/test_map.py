@@ -8,6 +8,10 @@ The estimator is the tiny scenario set's quick inversion (as
 
 import json
 import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -49,6 +53,8 @@ flux_lm = 10000.0
 """An HPS and an LED lamp at one end of a 160 m road (the far end is dark), on
 asphalt only: the tiny scenario set's estimator knows asphalt only (on the
 default grass verge it calls most LED pixels HID)."""
+
+ROOT = Path(__file__).resolve().parents[1]
 
 DARK = 1e-7
 """--dark-below [W m-2 sr-1 nm-1]: above zero, below two quantisation steps of
@@ -240,7 +246,7 @@ def _write(path, data, *, crs="EPSG:32632", scales=None, offsets=None, nodata=No
 @pytest.fixture
 def patch(world):
     """8 x 8 pixels of the rendered image near the HPS lamp (4 bands), floored
-at one 14-bit step so that none is dark [W m-2 sr-1 nm-1]."""
+    at one 14-bit step so that none is dark [W m-2 sr-1 nm-1]."""
     with rasterio.open(world[1]) as src:
         return np.maximum(src.read()[:, 1:9, :8].astype(np.float64), 6.1e-8)
 
@@ -315,9 +321,6 @@ def test_integer_dn_needs_a_calibration(world, patch, tmp_path, capsys):
 @pytest.mark.slow
 def test_a_million_pixels_stay_within_one_gigabyte(world, tmp_path):
     """Peak RSS of a child process mapping 1000 x 1000 pixels <= 1 GB."""
-    import subprocess
-    import sys
-
     img = np.tile(_read_all(world[1])[:, :8, :8], (1, 125, 125)).astype(np.float32)
     f = _write(tmp_path / "big.tif", img)
     code = (
@@ -333,6 +336,7 @@ def test_a_million_pixels_stay_within_one_gigabyte(world, tmp_path):
         text=True,
         check=True,
         timeout=3600,
+        cwd=ROOT,  # this checkout's bandopt
     )
     rc, peak_kib = done.stdout.split()[-2:]
     assert rc == "0"
@@ -360,3 +364,89 @@ def test_progress_says_how_many_tiles_and_the_time_left(monkeypatch):
     assert (
         "6 of 10" in stream.getvalue() and "left" in stream.getvalue().splitlines()[-1]
     )
+
+
+def test_the_moon_is_checked_at_the_date_and_place(world, patch, tmp_path, capsys):
+    f = _write(tmp_path / "img.tif", patch.astype(np.float32))
+    place = ("--lat", "48.14", "--lon", "11.58")
+    # full Moon 17 deg above Munich: the moonless estimator is not used
+    assert (
+        _map(f, tmp_path / "a", "--date", "2019-07-16T22:00", *place, model=world[4])
+        == 2
+    )
+    err = capsys.readouterr().err
+    assert "--date 2019-07-16T22:00" in err and "Moon is up" in err
+    assert _map(f, tmp_path / "b", "--date", "2019-07-16T22:00", model=world[4]) == 2
+    assert "go together" in capsys.readouterr().err
+    # the same night at noon UTC the Moon is below the horizon: mapped, recorded
+    assert (
+        _map(f, tmp_path / "c", "--date", "2019-07-16T12:00", *place, model=world[4])
+        == 0
+    )
+    moon = json.loads((tmp_path / "c" / "map.json").read_text())["moon"]
+    assert moon["above_horizon"] is False and moon["date_utc"].startswith("2019-07-16")
+
+
+@pytest.mark.slow
+def test_a_killed_run_keeps_its_finished_tiles(world, patch, tmp_path):
+    """A child process killed (SIGKILL) after some tiles: --resume skips them
+    and the maps equal those of a run never interrupted."""
+    img = np.tile(patch, (1, 8, 8)).astype(np.float32)  # 64 x 64: 16 tiles
+    f = _write(tmp_path / "img.tif", img)
+    out, full = tmp_path / "m", tmp_path / "full"
+    args = ["--tile", "16", "--dark-below", f"{DARK:g}", "--model", str(world[4])]
+    code = (
+        "from bandopt.cli import main\n"
+        f"main(['map', {str(f)!r}, '--bands', 'sdgsat-1', *{SMALL_CLI!r}, "
+        f"'--out', {str(out)!r}, *{args!r}])\n"
+    )
+    child = subprocess.Popen([sys.executable, "-c", code], cwd=ROOT)
+    ledger = out / "tiles.jsonl"
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < 600 and child.poll() is None:
+        if ledger.exists() and len(ledger.read_text().splitlines()) >= 3:
+            break
+        time.sleep(0.05)
+    child.kill()
+    child.wait()
+    done = len(ledger.read_text().splitlines()) - 1
+    assert 2 <= done < 16, done
+    assert (
+        main(
+            [
+                "map",
+                str(f),
+                "--bands",
+                "sdgsat-1",
+                *SMALL_CLI,
+                "--out",
+                str(out),
+                *args,
+                "--resume",
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "map",
+                str(f),
+                "--bands",
+                "sdgsat-1",
+                *SMALL_CLI,
+                "--out",
+                str(full),
+                *args,
+            ]
+        )
+        == 0
+    )
+    summary = json.loads((out / "map.json").read_text())
+    assert summary["tiles_skipped_on_resume"] >= done
+    for stem in ("LER", "level1", "mask", "unexplained"):
+        with (
+            rasterio.open(out / f"{stem}.tif") as a,
+            rasterio.open(full / f"{stem}.tif") as b,
+        ):
+            assert np.array_equal(a.read(), b.read(), equal_nan=True), stem
