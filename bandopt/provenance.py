@@ -26,6 +26,7 @@ PACKAGES = (
     "ephem",
     "pvlib",
     "matplotlib",
+    "rasterio",
 )
 
 
