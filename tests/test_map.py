@@ -319,9 +319,9 @@ def test_integer_dn_needs_a_calibration(world, patch, tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_a_million_pixels_stay_within_one_gigabyte(world, tmp_path):
+def test_a_million_pixels_stay_within_one_gigabyte(world, patch, tmp_path):
     """Peak RSS of a child process mapping 1000 x 1000 pixels <= 1 GB."""
-    img = np.tile(_read_all(world[1])[:, :8, :8], (1, 125, 125)).astype(np.float32)
+    img = np.tile(patch, (1, 125, 125)).astype(np.float32)  # none dark
     f = _write(tmp_path / "big.tif", img)
     code = (
         "import resource, sys\n"
@@ -340,12 +340,8 @@ def test_a_million_pixels_stay_within_one_gigabyte(world, tmp_path):
     )
     rc, peak_kib = done.stdout.split()[-2:]
     assert rc == "0"
+    print(f"peak RSS of the child mapping 1e6 pixels: {int(peak_kib) / 1024:.0f} MiB")
     assert int(peak_kib) * 1024 <= 1e9, f"peak RSS {int(peak_kib) / 1024:.0f} MiB"
-
-
-def _read_all(path):
-    with rasterio.open(path) as src:
-        return src.read()
 
 
 def test_progress_says_how_many_tiles_and_the_time_left(monkeypatch):
@@ -450,3 +446,29 @@ def test_a_killed_run_keeps_its_finished_tiles(world, patch, tmp_path):
             rasterio.open(full / f"{stem}.tif") as b,
         ):
             assert np.array_equal(a.read(), b.read(), equal_nan=True), stem
+
+
+def test_dark_follows_the_band_sets_detection_limits(
+    world, tiny_context, tmp_path, capsys
+):
+    toa = world[1]
+    assert main(["bands", "sdgsat-1", "--json"]) == 0
+    bands = json.loads(capsys.readouterr().out)
+    names = [b["name"] for b in bands["bands"]]
+    f = tmp_path / "bands.json"
+    limits = {"PAN": DARK, "blue": DARK, "green": DARK, "red": 1e-3}  # as radiometry
+    f.write_text(json.dumps({**bands, "detection_limit_w_m2_sr_nm": limits}))
+    # the file's bands differ from sdgsat-1's in the last digits: fitted anew
+    argv = ["map", str(toa), "--bands", str(f), *SMALL_CLI]
+    assert main([*argv, "--out", str(tmp_path / "m")]) == 0
+    with rasterio.open(toa) as src:
+        rad = src.read()
+    want = (rad < np.array([limits[n] for n in names])[:, None, None]).all(0)
+    assert np.array_equal(_read(tmp_path / "m" / "mask.tif") == 3, want)
+    dark = json.loads((tmp_path / "m" / "map.json").read_text())["dark"]
+    assert dark["from"] == f"detection limit of --bands {f}"
+    del limits["red"]
+    f.write_text(json.dumps({**bands, "detection_limit_w_m2_sr_nm": limits}))
+    assert main([*argv, "--out", str(tmp_path / "n")]) == 2
+    err = capsys.readouterr().err
+    assert str(f) in err and "no limit for band red" in err

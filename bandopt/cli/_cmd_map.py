@@ -154,21 +154,37 @@ def _moon(args) -> dict | None:
     return out
 
 
-def _dark_rule(args, entry, source) -> dict:
-    """The dark threshold and where it came from."""
+def _dark_rule(args, entry, source, names) -> dict:
+    """The dark threshold per band-set band (`names` order) and where it came
+    from: --dark-below, else the band set's detection limit (a reference
+    sensor's, or a band-set file's `detection_limit_w_m2_sr_nm`, one value
+    or {band: value} as `bandopt radiometry` gives it), else none."""
     import json
     from pathlib import Path
 
+    import numpy as np
+
     if args.dark_below is not None:
-        return {"below": args.dark_below, "from": "--dark-below"}
+        return {"below": [args.dark_below] * len(names), "from": "--dark-below"}
     limit = None if entry is None else entry.detection_limit_w_m2_sr_nm
     if limit is None and Path(source).is_file():
         data = json.loads(Path(source).read_text())  # read by --bands already
         limit = (
             data.get("detection_limit_w_m2_sr_nm") if isinstance(data, dict) else None
         )
+    if isinstance(limit, dict):
+        missing = [n for n in names if n not in limit]
+        if missing:
+            raise ValueError(
+                f"--bands {source}: detection_limit_w_m2_sr_nm gives no limit for "
+                f"band {', '.join(missing)}; give one per band or --dark-below."
+            )
+        limit = [limit[n] for n in names]
     if limit is not None:
-        return {"below": float(limit), "from": f"detection limit of --bands {source}"}
+        below = [
+            float(x) for x in np.broadcast_to(np.asarray(limit, float), len(names))
+        ]
+        return {"below": below, "from": f"detection limit of --bands {source}"}
     return {"below": None, "from": "no detection limit known: no band above 0"}
 
 
@@ -197,7 +213,7 @@ def run(args) -> int:
         allow_no_georef=args.allow_no_georef,
     )
     moon = _moon(args)
-    dark = _dark_rule(args, resolve_band_set(args.bands).entry, args.bands)
+    dark = _dark_rule(args, resolve_band_set(args.bands).entry, args.bands, names)
     read_prior_lamps(args, warnings)
     refl, surface_label, mode, knowledge = surface_of(args, np.asarray(GRID_1NM))
     fitted, fp = obtain_fitted(args, bands, config, mode)

@@ -187,10 +187,11 @@ def tiles(image: Image, size: int) -> list:
     ]
 
 
-def read_tile(image: Image, window, dark_below: float | None):
+def read_tile(image: Image, window, dark_below):
     """(radiance (h, w, k) [W m-2 sr-1 nm-1], mask code (h, w), see
     `MASK_CODES`) of one window: input nodata first, then NaN, then dark
-    (every band below `dark_below`; None: no band above 0)."""
+    (every band below its `dark_below` (k,) [W m-2 sr-1 nm-1]; None: no band
+    above 0)."""
     import rasterio
 
     with quiet(), rasterio.open(image.path) as src:
@@ -201,7 +202,7 @@ def read_tile(image: Image, window, dark_below: float | None):
     code[hit.any(-1)] = 1
     rad = image.gain * raw + image.offset
     code[(code == 0) & np.isnan(rad).any(-1)] = 2
-    dark = (rad < dark_below) if dark_below is not None else (rad <= 0.0)
+    dark = rad <= 0.0 if dark_below is None else rad < np.asarray(dark_below)
     code[(code == 0) & dark.all(-1)] = 3
     return rad, code
 
