@@ -472,3 +472,23 @@ def test_dark_follows_the_band_sets_detection_limits(
     assert main([*argv, "--out", str(tmp_path / "n")]) == 2
     err = capsys.readouterr().err
     assert str(f) in err and "no limit for band red" in err
+
+
+def test_a_tile_with_every_pixel_masked_is_written_as_nodata(world, patch, tmp_path):
+    img = np.tile(patch, (1, 2, 2)).astype(np.float32)  # 16 x 16: one tile
+    img[:, :, 8:] = 0.0  # no signal: dark (no band above 0)
+    out = tmp_path / "m"
+    assert (
+        _map(_write(tmp_path / "one.tif", img), out, "--tile", "16", model=world[4])
+        == 0
+    )
+    wide = np.concatenate([img, np.zeros_like(img)], axis=2)  # a 2nd tile, all dark
+    w = tmp_path / "w"
+    assert (
+        _map(_write(tmp_path / "wide.tif", wide), w, "--tile", "16", model=world[4])
+        == 0
+    )
+    mask, ler = _read(w / "mask.tif"), _read(w / "LER.tif")
+    assert (mask[:, 8:] == 3).all() and (ler[:, 8:] == -9999.0).all()
+    assert np.array_equal(ler[:, :16], _read(out / "LER.tif"), equal_nan=True)
+    assert json.loads((w / "map.json").read_text())["counts"]["dark"] == 16 * 24

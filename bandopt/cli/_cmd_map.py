@@ -280,6 +280,7 @@ def _map(args, image, fitted, fp, surface, out, info) -> int:
     from ._progress import Steps
 
     model = fitted.model
+    step = model.predict_chunk_pixels()
     labels1, labels2 = (list(x) for x in model.type_labels())
     header = {
         "image": str(image.path.resolve()),
@@ -316,9 +317,15 @@ def _map(args, image, fitted, fp, surface, out, info) -> int:
         planes = np.full((sum(len(OUTPUTS[s]) for s in stems[:-1]), h * w), NODATA)
         ok = np.flatnonzero(code.ravel() == 0)
         y = rad.reshape(h * w, -1)[ok]
-        for i0, res in fitted.predict_chunks(y, surface):
-            idx = ok[i0 : i0 + len(res.misfit)]
-            planes[:, idx] = _planes(res, len(idx), labels1, labels2)
+        # every chunk the same size, the last padded with copies of a pixel
+        # (results dropped): a chunk of a new size compiles a new program,
+        # which stays in memory, and masks make every tile's remainder new
+        y = np.concatenate([y, np.repeat(y[:1], -len(ok) % step, axis=0)])
+        chunks = fitted.predict_chunks(y, surface, chunk_pixels=step) if len(ok) else ()
+        for i0, res in chunks:
+            idx = ok[i0 : i0 + step]
+            vals = _planes(res, len(res.misfit), labels1, labels2)
+            planes[:, idx] = vals[:, : len(idx)]
         split = np.cumsum([len(OUTPUTS[s]) for s in stems[:-1]])[:-1]
         data = dict(zip(stems[:-1], np.split(planes, split), strict=True))
         data = {s: v.reshape(-1, h, w) for s, v in data.items()}
