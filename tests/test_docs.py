@@ -95,6 +95,33 @@ def test_sphinx_build_offline(tmp_path, monkeypatch):
     assert (out / "guide.html").is_file() and (out / "tutorial.html").is_file()
 
 
+def _make_docs_sphinx_args() -> list[str]:
+    """The arguments of the `sphinx` call in the Makefile's `docs` target."""
+    make = (ROOT / "Makefile").read_text()
+    recipe = make[make.index("\ndocs:"):].split("\n\n")[0]
+    line = next(x for x in recipe.splitlines() if "-m sphinx" in x)
+    return line.split("-m sphinx", 1)[1].split()
+
+
+def test_make_docs_fails_on_a_warning(tmp_path):
+    """`make docs` rebuilds every page (`-E`: autodoc pages are otherwise not
+    re-read when only a docstring changed, and their warnings vanish) and its
+    exact Sphinx options turn one warning into a nonzero exit."""
+    from sphinx.cmd import build as sphinx_build
+
+    args = _make_docs_sphinx_args()
+    assert {"-W", "--keep-going", "-E"} <= set(args)
+    assert args[-2:] == ["docs", "docs/_build/html"]
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "conf.py").write_text("")
+    (src / "index.rst").write_text("Title\n=====\n\n:doc:`no-such-page`\n")
+    options = args[:-2]
+    assert sphinx_build.build_main([*options, str(src), str(tmp_path / "bad")]) != 0
+    (src / "index.rst").write_text("Title\n=====\n\nFine.\n")
+    assert sphinx_build.build_main([*options, str(src), str(tmp_path / "ok")]) == 0
+
+
 def _guide_block(title: str) -> str:
     """The first python code block under the guide's section `title`."""
     text = (DOCS / "guide.rst").read_text()
