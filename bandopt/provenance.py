@@ -2,12 +2,13 @@
 
 import datetime as _dt
 import hashlib
-import json
 import platform
 import subprocess
 import sys
 from importlib import metadata
 from pathlib import Path
+
+from .strict_json import strict_dumps
 
 
 PACKAGES = (
@@ -188,5 +189,5 @@ def write_manifest(directory: str | Path, **kwargs) -> Path:
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     path = directory / "manifest.json"
-    path.write_text(json.dumps(manifest(**kwargs), indent=2, default=str) + "\n")
+    path.write_text(strict_dumps(manifest(**kwargs), indent=2) + "\n")
     return path

@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from .datasets.lamps import library
+from .strict_json import strict_dumps
 
 
 LAMPS = {
@@ -132,7 +133,7 @@ def evaluate(out: Path, files: list[Path]) -> dict:
         if proc.returncode != 0:
             raise RuntimeError(f"bandopt evaluate failed for {name}:\n{proc.stderr}")
         data = json.loads(proc.stdout)
-        (out / f"evaluate_{name}.json").write_text(json.dumps(data, indent=2) + "\n")
+        (out / f"evaluate_{name}.json").write_text(strict_dumps(data, indent=2) + "\n")
         results[name] = data
         print(f"  {name}: {time.perf_counter() - t0:.0f} s")
     return {"estimator": label, "sensors": results}

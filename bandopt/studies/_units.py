@@ -14,6 +14,7 @@ from ..provenance import write_manifest
 from ..results import update_readme_section
 from ..sensor import BandSet
 from ..sensor.reference import resolve
+from ..strict_json import strict_dumps
 
 
 CONTIGUOUS = "contiguous-"
@@ -72,7 +73,7 @@ def keep_unit(rec_path: Path, recs: list[dict]) -> list[dict]:
     them whatever fails later) and return them."""
     with rec_path.open("a") as fh:
         for r in recs:
-            fh.write(json.dumps(r) + "\n")
+            fh.write(strict_dumps(r, indent=None) + "\n")
     return recs
 
 
@@ -144,7 +145,7 @@ def write_outputs(
     `update_readme_section` of `readme(summary)`; a default run),
     `manifest.json` (`seed`, `config`), and the closing progress line via
     `say` (`t0`: start time [s since the epoch]); returns the exit status 0."""
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    (out / "summary.json").write_text(strict_dumps(summary, indent=2) + "\n")
     for draw, name in figures:
         draw(summary, out / name)
     if section is not None:

@@ -24,7 +24,6 @@ and the `estimate-moon` section of `results/README.md` (default output only).
 """
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -35,6 +34,7 @@ from .. import inversion as inv_mod
 from ..provenance import write_manifest
 from ..results import update_readme_section
 from ..search import PRESETS, get_context
+from ..strict_json import strict_dumps
 from ._study import unseen_records
 from ._text import diff_cells, held_out, unseen_lines
 from ._units import band_set
@@ -224,10 +224,10 @@ def run(argv=None) -> int:
         "rows": rows,
         "paired": paired,
     }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    (out / "summary.json").write_text(strict_dumps(summary, indent=2) + "\n")
     with (out / "records.jsonl").open("w") as fh:
         for r in all_recs:
-            fh.write(json.dumps(r) + "\n")
+            fh.write(strict_dumps(r, indent=None) + "\n")
     if args.out is None:
         update_readme_section(
             "estimate-moon",
