@@ -203,9 +203,12 @@ class OutputLock:
 
 
 def write_manifest(directory, **kwargs) -> Path:
-    """`bandopt.provenance.manifest` written atomically to `directory`."""
-    from ..provenance import manifest
+    """`bandopt.provenance.manifest` written atomically to `directory`; a
+    folder inside the repository's `results/` needs a clean code tree
+    (`bandopt.provenance.check_clean_tree`)."""
+    from ..provenance import check_clean_tree, manifest
 
+    check_clean_tree(directory)
     return atomic_write_text(
         Path(directory) / "manifest.json",
         strict_dumps(manifest(**kwargs)) + "\n",

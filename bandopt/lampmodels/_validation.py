@@ -39,7 +39,7 @@ import numpy as np
 
 from ..datasets.lamps import library
 from ..photometry import metrics
-from ..provenance import manifest
+from ..provenance import check_clean_tree, manifest
 from ..strict_json import strict_dumps
 from ._calibrate import (
     SHRINKAGE,
@@ -357,6 +357,7 @@ def write_validation(
     validation_figure(examples, summary, out / "lamp_models.png")
     # beside the lamp-library report's manifest.json in the same folder, under
     # its own name
+    check_clean_tree(out)
     (out / "lamp_models_manifest.json").write_text(
         strict_dumps(manifest(seed=seed, config=config), indent=2) + "\n"
     )

@@ -6,11 +6,17 @@ and the outputs every study ends with (`write_outputs`)."""
 import argparse
 import csv
 import json
+import os
 import sys
 import time
 from pathlib import Path
 
-from ..provenance import write_manifest
+from ..provenance import (
+    ALLOW_DIRTY_ENV,
+    DirtyTreeError,
+    check_clean_tree,
+    write_manifest,
+)
 from ..results import update_readme_section
 from ..sensor import BandSet
 from ..sensor.reference import resolve
@@ -80,7 +86,11 @@ def keep_unit(rec_path: Path, recs: list[dict]) -> list[dict]:
 def partition_args(argv, description: str, out: str, unseen: bool = True):
     """The command line of a partitioned, resumable study: `--partitions`,
     `--out` (default `out`), `--resume`, `--only-partitions` and, with
-    `unseen`, `--no-unseen`; (args, the partitions to compute)."""
+    `unseen`, `--no-unseen`, and `--allow-dirty`; (args, the partitions to
+    compute). An output folder inside the repository's `results/` is refused
+    here, before any computation, while the code tree is dirty
+    (`bandopt.provenance.check_clean_tree`) unless `--allow-dirty` (which sets
+    `BANDOPT_ALLOW_DIRTY=1` for the run's manifest too)."""
     ap = argparse.ArgumentParser(description=description)
     ap.add_argument("--partitions", type=int, default=4, help="lamp partitions")
     ap.add_argument("--out", default=None, help=f"output (default {out})")
@@ -101,6 +111,12 @@ def partition_args(argv, description: str, out: str, unseen: bool = True):
         "parallel processes with their own --out; concatenate their "
         "records.jsonl and summarise with --resume)",
     )
+    ap.add_argument(
+        "--allow-dirty",
+        action="store_true",
+        help="write into results/ even from uncommitted code (the manifest "
+        f"records git_dirty; same as {ALLOW_DIRTY_ENV}=1)",
+    )
     args = ap.parse_args(argv)
     if args.partitions < 1:
         ap.error("--partitions must be >= 1.")
@@ -109,6 +125,12 @@ def partition_args(argv, description: str, out: str, unseen: bool = True):
         ap.error(f"--only-partitions {only}: each must be in 0..{args.partitions - 1}.")
     if only is not None and args.out is None:
         ap.error("--only-partitions needs its own --out (a partial summary).")
+    if args.allow_dirty:
+        os.environ[ALLOW_DIRTY_ENV] = "1"
+    try:
+        check_clean_tree(args.out or out)
+    except DirtyTreeError as err:
+        ap.error(str(err))
     return args, range(args.partitions) if only is None else only
 
 
