@@ -220,6 +220,29 @@ def check_clean_tree(directory: str | Path) -> None:
         )
 
 
+def add_allow_dirty(parser) -> None:
+    """The `--allow-dirty` option of an experiment's command line."""
+    parser.add_argument(
+        "--allow-dirty",
+        action="store_true",
+        help="write into results/ even from uncommitted code (the manifest "
+        f"records git_dirty; same as {ALLOW_DIRTY_ENV}=1)",
+    )
+
+
+def refuse_dirty_at_start(parser, args, out: str | Path) -> None:
+    """`check_clean_tree(out)` when an experiment starts, so a run that would
+    be refused its manifest stops before computing (`parser.error`, exit 2)
+    rather than after; `args.allow_dirty` (`add_allow_dirty`) sets
+    `BANDOPT_ALLOW_DIRTY=1` for the rest of the run."""
+    if getattr(args, "allow_dirty", False):
+        os.environ[ALLOW_DIRTY_ENV] = "1"
+    try:
+        check_clean_tree(out)
+    except DirtyTreeError as err:
+        parser.error(str(err))
+
+
 def write_manifest(directory: str | Path, **kwargs) -> Path:
     """Write `manifest.json` into `directory` (created if needed); return its
     path. A folder inside the repository's `results/` needs a clean code tree

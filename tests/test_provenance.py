@@ -1,4 +1,5 @@
 import json
+import os
 
 import pytest
 
@@ -125,3 +126,53 @@ def test_study_command_line_refuses_before_computing(repo, capsys):
     args, _ = partition_args(["--out", out, "--allow-dirty"], "d", "results/x")
     assert args.allow_dirty and os.environ[ALLOW_DIRTY_ENV] == "1"
     write_manifest(out)
+
+
+EXPERIMENTS_INTO_RESULTS = (
+    ("experiments.search", ["run"], "results/search"),
+    ("experiments.classify", [], "results/classify"),
+    ("experiments.classify_partitions", [], "results/classify_partitions"),
+    ("experiments.robustness", [], "results/robustness"),
+    ("experiments.spatial", [], "results/spatial"),
+    ("experiments.spatial_overlap", [], "results/spatial"),
+    ("experiments.noise_aware", [], "results/noise_aware"),
+    ("experiments.search_solvers", [], "results/search_solvers"),
+    ("experiments.radiometry", [], "results/radiometry"),
+    ("experiments.lamp_models", [], "results/library"),
+    ("experiments.lamp_library", [], "results/library"),
+    ("experiments.estimate", [], "results/estimate"),
+    ("experiments.estimate_moon", [], "results/estimate_moon"),
+    ("experiments.estimate_library", [], "results/estimate_library"),
+    ("experiments.external_tm30", [], "results/external_tm30"),
+    ("experiments.unseen_ceiling", [], "results/unseen_ceiling"),
+    ("experiments.study", ["estimate-mix"], "results/estimate_mix"),
+)
+
+
+class _StopError(Exception):
+    pass
+
+
+@pytest.mark.parametrize(("module", "argv", "out"), EXPERIMENTS_INTO_RESULTS)
+def test_experiments_check_the_tree_before_computing(module, argv, out, monkeypatch):
+    """Every experiment that writes into results/ asks `check_clean_tree`
+    about its output folder right after reading its command line (stopped
+    there, so nothing is computed) and offers --allow-dirty."""
+    import importlib
+
+    from bandopt import provenance
+
+    asked = []
+
+    def stop(directory):
+        asked.append(str(directory))
+        raise _StopError
+
+    monkeypatch.setattr(provenance, "check_clean_tree", stop)
+    monkeypatch.delenv(provenance.ALLOW_DIRTY_ENV, raising=False)
+    mod = importlib.import_module(module)
+    main = getattr(mod, "main", None) or mod.cli
+    with pytest.raises(_StopError):
+        main([*argv, "--allow-dirty"])
+    assert asked[0].replace("\\", "/").endswith(out), asked
+    assert os.environ[provenance.ALLOW_DIRTY_ENV] == "1"

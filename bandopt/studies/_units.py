@@ -6,17 +6,11 @@ and the outputs every study ends with (`write_outputs`)."""
 import argparse
 import csv
 import json
-import os
 import sys
 import time
 from pathlib import Path
 
-from ..provenance import (
-    ALLOW_DIRTY_ENV,
-    DirtyTreeError,
-    check_clean_tree,
-    write_manifest,
-)
+from ..provenance import add_allow_dirty, refuse_dirty_at_start, write_manifest
 from ..results import update_readme_section
 from ..sensor import BandSet
 from ..sensor.reference import resolve
@@ -111,12 +105,7 @@ def partition_args(argv, description: str, out: str, unseen: bool = True):
         "parallel processes with their own --out; concatenate their "
         "records.jsonl and summarise with --resume)",
     )
-    ap.add_argument(
-        "--allow-dirty",
-        action="store_true",
-        help="write into results/ even from uncommitted code (the manifest "
-        f"records git_dirty; same as {ALLOW_DIRTY_ENV}=1)",
-    )
+    add_allow_dirty(ap)
     args = ap.parse_args(argv)
     if args.partitions < 1:
         ap.error("--partitions must be >= 1.")
@@ -125,12 +114,7 @@ def partition_args(argv, description: str, out: str, unseen: bool = True):
         ap.error(f"--only-partitions {only}: each must be in 0..{args.partitions - 1}.")
     if only is not None and args.out is None:
         ap.error("--only-partitions needs its own --out (a partial summary).")
-    if args.allow_dirty:
-        os.environ[ALLOW_DIRTY_ENV] = "1"
-    try:
-        check_clean_tree(args.out or out)
-    except DirtyTreeError as err:
-        ap.error(str(err))
+    refuse_dirty_at_start(ap, args, args.out or out)
     return args, range(args.partitions) if only is None else only
 
 

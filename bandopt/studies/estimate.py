@@ -52,7 +52,7 @@ from pathlib import Path
 
 from .. import inversion as inv_mod
 from ..inversion import MIN_CALIBRATION_LAMPS, MODELLED_CLASSES
-from ..provenance import write_manifest
+from ..provenance import add_allow_dirty, refuse_dirty_at_start, write_manifest
 from ..results import update_readme_section, update_recommendation
 from ..search import get_context
 from ..strict_json import strict_dumps
@@ -116,6 +116,7 @@ def run(argv=None) -> int:
         help="recompute summaries, figures, the README section and the "
         "recommendation.json part from records.jsonl / unseen_types.json",
     )
+    add_allow_dirty(ap)
     args = ap.parse_args(argv)
     if args.modelled_per_class < 0:
         ap.error("--modelled-per-class must be >= 0.")
@@ -123,6 +124,7 @@ def run(argv=None) -> int:
     out = Path(
         args.out or ("results/estimate_quick" if args.quick else "results/estimate")
     )
+    refuse_dirty_at_start(ap, args, out)
     out.mkdir(parents=True, exist_ok=True)
     preset = "tiny" if args.quick else "search"
     parts = 1 if args.quick else args.partitions

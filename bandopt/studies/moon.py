@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import inversion as inv_mod
-from ..provenance import write_manifest
+from ..provenance import add_allow_dirty, refuse_dirty_at_start, write_manifest
 from ..results import update_readme_section
 from ..search import PRESETS, get_context
 from ..strict_json import strict_dumps
@@ -159,11 +159,13 @@ def run(argv=None) -> int:
     ap.add_argument(
         "--out", default=None, help="output folder (default results/estimate_moon)"
     )
+    add_allow_dirty(ap)
     args = ap.parse_args(argv)
     if args.partitions < 1:
         ap.error("--partitions must be >= 1.")
 
     out = Path(args.out or "results/estimate_moon")
+    refuse_dirty_at_start(ap, args, out)
     out.mkdir(parents=True, exist_ok=True)
     rows, all_recs, paired = [], [], []
     t0 = time.time()
