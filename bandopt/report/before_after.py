@@ -27,7 +27,7 @@ import argparse
 import math
 from pathlib import Path
 
-from ..provenance import write_manifest
+from ..provenance import check_clean_tree, write_manifest
 from ..results import update_readme_section
 from ..strict_json import strict_dumps
 from ._before_after_files import (
@@ -314,8 +314,10 @@ def readme_text(record: dict) -> str:
 
 
 def write(record: dict, results: str | Path = "results", *, config=None) -> Path:
-    """`before_after.json`, its manifest and the README section in `results`."""
+    """`before_after.json`, its manifest and the README section in `results`
+    (nothing written when the manifest would be refused: `check_clean_tree`)."""
     root = Path(results)
+    check_clean_tree(root / "before_after_manifest")
     path = root / "before_after.json"
     path.write_text(strict_dumps(record, indent=2) + "\n")
     write_manifest(root / "before_after_manifest", config=config or {})
