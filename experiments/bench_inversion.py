@@ -51,6 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bandopt.strict_json import strict_dumps
 from bandopt.timing import best_time
 
 
@@ -226,7 +227,7 @@ def main(argv=None) -> int:
     }
     dest = Path(args.out)
     dest.mkdir(parents=True, exist_ok=True)
-    (dest / "inversion.json").write_text(json.dumps(out, indent=2) + "\n")
+    (dest / "inversion.json").write_text(strict_dumps(out, indent=2) + "\n")
     write_manifest(
         dest / "inversion_manifest", seed=0, config={"bench": "inversion", **vars(args)}
     )
