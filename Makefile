@@ -124,7 +124,7 @@ check-report: report  ## open the report in headless Chromium: figures load, tab
 
 docs: $(STAMP)  ## user guide + API reference from the docstrings (Sphinx, offline) -> docs/_build/html
 	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test,docs]'
-	$(BIN)/python -m sphinx -b html -q -W --keep-going docs docs/_build/html
+	$(BIN)/python -m sphinx -b html -q -W --keep-going -E docs docs/_build/html
 	@echo "open docs/_build/html/index.html"
 
 tutorial: $(STAMP)  ## the worked tutorial of docs/tutorial.rst (own lamp spectra, 3 sensors, the report)

@@ -233,7 +233,33 @@ def _run(spectra, wavelength_nm, quantity: str, method: str = "ohno2013"):
         host = np.asarray(spectra)
     except jax.errors.TracerArrayConversionError:
         return _core(spectra, start, quantity, method)
-    return _from_integrals(_host_integrals(host, start), quantity, method)
+    return _from_host_integrals(_host_integrals(host, start), quantity, method)
+
+
+def _bucket(n: int) -> int:
+    """The batch size `_from_integrals` is compiled for when `n` rows are
+    asked: the next power of two. Each compiled size costs ~140 memory maps
+    (XLA:CPU code and constants), and a process that asked for every batch size
+    it met would reach the kernel's limit (vm.max_map_count, 65530) after a few
+    hundred sizes and die in the compiler (seen in the test suite); buckets
+    bound the count by log2 of the largest batch."""
+    return 1 << max(n - 1, 0).bit_length()
+
+
+def _from_host_integrals(sums: np.ndarray, quantity: str, method: str):
+    """`_from_integrals` of host integrals `(*batch, 8)`, the rows padded with
+    copies of the first to `_bucket(n)` and the padding dropped again (every
+    quantity is a function of its own row only)."""
+    batch = sums.shape[:-1]
+    flat = sums.reshape(-1, sums.shape[-1])
+    n = flat.shape[0]
+    if n == 0:
+        return _from_integrals(sums, quantity, method)
+    pad = _bucket(n) - n
+    if pad:
+        flat = np.concatenate([flat, np.repeat(flat[:1], pad, axis=0)])
+    out = _from_integrals(flat, quantity, method)
+    return jax.tree_util.tree_map(lambda a: a[:n].reshape(batch), out)
 
 
 # --------------------------------------------------------------------------------------

@@ -2,12 +2,14 @@
 
 import datetime as _dt
 import hashlib
-import json
+import os
 import platform
 import subprocess
 import sys
 from importlib import metadata
 from pathlib import Path
+
+from .strict_json import strict_dumps
 
 
 PACKAGES = (
@@ -30,6 +32,13 @@ PACKAGES = (
 )
 
 
+CHECKOUT = Path(__file__).resolve().parent
+"""Where git is asked: the checkout holding bandopt (tests point it elsewhere)."""
+
+ALLOW_DIRTY_ENV = "BANDOPT_ALLOW_DIRTY"
+"""Set to 1 to write a manifest into `results/` from a tree with uncommitted code."""
+
+
 def _git(*args: str) -> str | None:
     try:
         out = subprocess.run(
@@ -37,7 +46,7 @@ def _git(*args: str) -> str | None:
             capture_output=True,
             text=True,
             check=True,
-            cwd=Path(__file__).resolve().parent,
+            cwd=CHECKOUT,
         )
     except (OSError, subprocess.CalledProcessError):
         return None
@@ -55,7 +64,7 @@ def code_changes() -> list[str] | None:
             capture_output=True,
             text=True,
             check=True,
-            cwd=Path(__file__).resolve().parent,
+            cwd=CHECKOUT,
         ).stdout
     except (OSError, subprocess.CalledProcessError):
         return None
@@ -184,10 +193,64 @@ def manifest(
     }
 
 
+class DirtyTreeError(RuntimeError):
+    """A result in the repository's `results/` would come from uncommitted code."""
+
+
+def check_clean_tree(directory: str | Path) -> None:
+    """Refuse (`DirtyTreeError`) a result folder `directory` inside the
+    repository's `results/` while tracked code outside `results/` differs from
+    HEAD (`code_changes`): a committed result must name the commit that made
+    it. `BANDOPT_ALLOW_DIRTY=1` (or an experiment's `--allow-dirty`) lets it
+    through; the manifest still records `git_dirty` and the paths. Folders
+    elsewhere (a temporary folder, `tutorial-output/`) and runs outside git
+    are always allowed."""
+    top = _git("rev-parse", "--show-toplevel")
+    if top is None or os.environ.get(ALLOW_DIRTY_ENV) == "1":
+        return
+    results = Path(top).resolve() / "results"
+    if not Path(directory).resolve().is_relative_to(results):
+        return
+    dirty = code_changes()
+    if dirty:
+        raise DirtyTreeError(
+            f"{directory}: refusing to write a result into {results} from a tree "
+            f"with uncommitted code ({', '.join(dirty)}); commit or stash those "
+            f"changes and re-run, or set {ALLOW_DIRTY_ENV}=1 (an experiment's "
+            "--allow-dirty) to write it anyway, marked git_dirty in its manifest."
+        )
+
+
+def add_allow_dirty(parser) -> None:
+    """The `--allow-dirty` option of an experiment's command line."""
+    parser.add_argument(
+        "--allow-dirty",
+        action="store_true",
+        help="write into results/ even from uncommitted code (the manifest "
+        f"records git_dirty; same as {ALLOW_DIRTY_ENV}=1)",
+    )
+
+
+def refuse_dirty_at_start(parser, args, out: str | Path) -> None:
+    """`check_clean_tree(out)` when an experiment starts, so a run that would
+    be refused its manifest stops before computing (`parser.error`, exit 2)
+    rather than after; `args.allow_dirty` (`add_allow_dirty`) sets
+    `BANDOPT_ALLOW_DIRTY=1` for the rest of the run."""
+    if getattr(args, "allow_dirty", False):
+        os.environ[ALLOW_DIRTY_ENV] = "1"
+    try:
+        check_clean_tree(out)
+    except DirtyTreeError as err:
+        parser.error(str(err))
+
+
 def write_manifest(directory: str | Path, **kwargs) -> Path:
-    """Write `manifest.json` into `directory` (created if needed); return its path."""
+    """Write `manifest.json` into `directory` (created if needed); return its
+    path. A folder inside the repository's `results/` needs a clean code tree
+    (`check_clean_tree`)."""
     directory = Path(directory)
+    check_clean_tree(directory)
     directory.mkdir(parents=True, exist_ok=True)
     path = directory / "manifest.json"
-    path.write_text(json.dumps(manifest(**kwargs), indent=2, default=str) + "\n")
+    path.write_text(strict_dumps(manifest(**kwargs), indent=2) + "\n")
     return path

@@ -17,6 +17,7 @@ import tempfile
 from pathlib import Path
 
 from .provenance import git_commit
+from .strict_json import strict_dumps
 
 
 RESULTS_DIR = Path(os.environ.get("BANDOPT_RESULTS", "results"))
@@ -74,7 +75,7 @@ def update_recommendation(
     data[key] = value
     fd, tmp = tempfile.mkstemp(dir=root, prefix=".recommendation-", suffix=".json")
     with os.fdopen(fd, "w") as fh:
-        json.dump(data, fh, indent=2, default=str)
+        fh.write(strict_dumps(data, indent=2))
         fh.write("\n")
     os.chmod(tmp, 0o644)
     os.replace(tmp, path)

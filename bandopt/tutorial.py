@@ -13,17 +13,20 @@ The steps of docs/tutorial.rst, end to end, in a few minutes on 2 cores
    the files were yours. Replace `--lamps` by your own files to use yours.
 2. **Evaluate three sensors** with the command line, as a user would:
    `bandopt evaluate --bands NAME|FILE --lamps FILE... --json` for VIIRS DNB,
-   SDGSAT-1 and the optimised 4-band set (4 free bands + pan) of the stability
-   study (`results/search/recommended_bands.json`). The estimator is the
-   physics-based inversion (`--estimator inversion`) when this version's
-   `bandopt evaluate --help` offers it, else the ridge regression (a version
-   without `--estimator`); the output says which was used.
+   SDGSAT-1 and the optimised band set (free bands + a fixed panchromatic
+   band) of the stability study (`results/search/recommended_bands.json`).
+   The estimator is the physics-based inversion (`--estimator inversion`)
+   when this version's `bandopt evaluate --help` offers it, else the ridge
+   regression (a version without `--estimator`); the output says which was
+   used.
 3. **Build and open the report**: `bandopt report --out DIR` builds the
    self-contained HTML report from `results/`; `--open` opens it in your browser.
 
 `run(out)` writes into `out`: the three CSV files, `evaluate_<sensor>.json`
-per sensor, `errors.csv` (absolute error per lamp, sensor and metric), and
-`report/index.html`. Nothing under `results/` changes.
+per sensor, `errors.csv` (absolute error per lamp, sensor and metric),
+`summary.json` (the estimator, the mean absolute error per sensor and metric,
+the seconds of each `bandopt evaluate` run) and `report/index.html`. Nothing
+under `results/` changes.
 """
 
 import csv
@@ -38,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from .datasets.lamps import library
+from .strict_json import strict_dumps
 
 
 LAMPS = {
@@ -55,7 +59,7 @@ RESULTS = Path(__file__).resolve().parents[1] / "results"
 SENSORS = {
     "viirs-dnb": "viirs-dnb",
     "sdgsat-1": "sdgsat-1",
-    "optimised-4-band": str(RESULTS / "search" / "recommended_bands.json"),
+    "optimised": str(RESULTS / "search" / "recommended_bands.json"),
 }
 """The three sensors evaluated: name -> `bandopt evaluate --bands` value."""
 
@@ -114,7 +118,7 @@ def evaluate(out: Path, files: list[Path]) -> dict:
     the LSPDD so the three lamps are unseen."""
     opt, label = estimator_option()
     env = {**os.environ, "BANDOPT_LSPDD": "0"}
-    results = {}
+    results, seconds = {}, {}
     for name, bands in SENSORS.items():
         t0 = time.perf_counter()
         cmd = [
@@ -132,10 +136,11 @@ def evaluate(out: Path, files: list[Path]) -> dict:
         if proc.returncode != 0:
             raise RuntimeError(f"bandopt evaluate failed for {name}:\n{proc.stderr}")
         data = json.loads(proc.stdout)
-        (out / f"evaluate_{name}.json").write_text(json.dumps(data, indent=2) + "\n")
+        (out / f"evaluate_{name}.json").write_text(strict_dumps(data, indent=2) + "\n")
         results[name] = data
-        print(f"  {name}: {time.perf_counter() - t0:.0f} s")
-    return {"estimator": label, "sensors": results}
+        seconds[name] = time.perf_counter() - t0
+        print(f"  {name}: {seconds[name]:.0f} s")
+    return {"estimator": label, "sensors": results, "seconds": seconds}
 
 
 def error_table(ev: dict, out: Path) -> list[dict]:
@@ -186,16 +191,40 @@ def print_table(rows: list[dict]) -> None:
             cells.append(f"{'n/a':>18s}" if e is None else f"{e:18.3g}")
         print(f"{lamp:12s} {m:6s} {t:9.3g} " + " ".join(cells))
     print("\nmean |error| over the three lamps:")
-    for s in SENSORS:
-        parts = []
+    for s, mae in mean_abs_errors(rows).items():
+        parts = [f"{m} n/a" if v is None else f"{m} {v:.3g}" for m, v in mae.items()]
+        print(f"  {s:18s} " + ", ".join(parts))
+
+
+def mean_abs_errors(rows: list[dict]) -> dict[str, dict[str, float | None]]:
+    """Mean absolute error over the lamps per sensor and metric of the
+    `error_table` rows (None where no lamp has an estimate)."""
+    out = {}
+    for s in dict.fromkeys(r["sensor"] for r in rows):
+        out[s] = {}
         for m in METRICS:
             errs = [
                 r["abs_error"]
                 for r in rows
                 if r["sensor"] == s and r["metric"] == m and r["abs_error"] is not None
             ]
-            parts.append(f"{m} {sum(errs) / len(errs):.3g}" if errs else f"{m} n/a")
-        print(f"  {s:18s} " + ", ".join(parts))
+            out[s][m] = sum(errs) / len(errs) if errs else None
+    return out
+
+
+def write_summary(ev: dict, rows: list[dict], out: Path) -> Path:
+    """`out/summary.json`: the estimator, the mean absolute error per sensor
+    and metric [lm/W, 1, K] and the seconds of each `bandopt evaluate` run,
+    the numbers a text quoting this run takes from."""
+    path = out / "summary.json"
+    summary = {
+        "estimator": ev["estimator"],
+        "lamps": sorted(LAMPS),
+        "mean_abs_error": mean_abs_errors(rows),
+        "evaluate_seconds": ev.get("seconds", {}),
+    }
+    path.write_text(strict_dumps(summary) + "\n")
+    return path
 
 
 def build_report(out: Path, open_it: bool) -> Path:
@@ -227,11 +256,12 @@ def run(out: Path, open_report: bool = False) -> Path:
     files = export_lamps(out)
     for f in files:
         print(f"  {f.name}: {LAMPS[f.stem]}")
-    print("[2/3] evaluate VIIRS DNB, SDGSAT-1 and the optimised 4-band set")
+    print("[2/3] evaluate VIIRS DNB, SDGSAT-1 and the optimised band set")
     ev = evaluate(out, files)
     print(f"  estimator: {ev['estimator']}")
     rows = error_table(ev, out)
     print_table(rows)
+    write_summary(ev, rows, out)
     print("[3/3] the report")
     path = build_report(out, open_report)
     print(f"\nopen {path}\ndone in {time.perf_counter() - t0:.0f} s")

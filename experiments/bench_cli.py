@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from bandopt.strict_json import strict_dumps
+
 
 BASELINE_COMMIT = "85d9335"
 """main before issue 15 (the CLI read CSVs as Python lists and built the
@@ -169,7 +171,7 @@ def main(argv=None) -> Path:
     }
     out.mkdir(parents=True, exist_ok=True)
     path = out / "cli.json"
-    path.write_text(json.dumps(result, indent=2) + "\n")
+    path.write_text(strict_dumps(result, indent=2) + "\n")
     write_manifest(out / "cli_manifest", config=vars(args))
     print(json.dumps(result["ratio_current_over_baseline"], indent=2))
     print(f"wrote {path}")

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bandopt.strict_json import strict_dumps
 from bandopt.timing import best_time
 
 
@@ -268,7 +269,7 @@ def main(argv=None) -> Path:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     path = out / "forward.json"
-    path.write_text(json.dumps(result, indent=2) + "\n")
+    path.write_text(strict_dumps(result, indent=2) + "\n")
     write_manifest(out / "forward_manifest", config=vars(args))
     print(json.dumps(result["speed"], indent=2))
     print(json.dumps(result["defaults_chosen"], indent=2))

@@ -32,7 +32,10 @@ in the same process; peak resident memory is that process's `VmHWM` (forked
 from a fresh forkserver) after the imports, after the warm-up and at the
 end. `resource.getrusage`'s `ru_maxrss` is recorded too but is not this
 run's: Linux keeps it across fork and exec, so it starts at the high-water
-mark of the process that started the server (this one, after fitting). The `exp`
+mark of the process that started the server (this one, after fitting).
+The same pixels are then predicted with float32 scoring (`Inversion.predict(
+dtype='float32')`, after its own warm-up; `peak_rss_mb_float64` is the peak
+before it). The `exp`
 floor is the time of the `exp` calls the scoring makes per pixel (counted
 from the prior's, surface candidates' and atmospheres' sizes, the band-error
 models and the flag's inner folds) done alone, in the same process.
@@ -51,6 +54,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bandopt.strict_json import strict_dumps
 from bandopt.timing import best_time
 
 
@@ -70,6 +74,12 @@ def main(argv=None) -> int:
         "--sizes",
         default="1000,10000,100000",
         help="pixel counts of the image-scale runs, comma-separated ('' none)",
+    )
+    ap.add_argument(
+        "--image-scale-only",
+        action="store_true",
+        help="run only the image-scale runs and replace that entry of an "
+        "existing inversion.json (the other entries keep their run's numbers)",
     )
     args = ap.parse_args(argv)
 
@@ -91,6 +101,24 @@ def main(argv=None) -> int:
         else BandSet.from_physical([450, 530, 600, 680, 820], [60, 60, 50, 60, 80])
     )
     ctx = get_context("quick" if args.quick else "search", None, 0, "auto")
+    dest = Path(args.out)
+    if args.image_scale_only:
+        old = json.loads((dest / "inversion.json").read_text())
+        old["image_scale"] = image_scale(
+            ctx, bands, [int(float(x)) for x in args.sizes.split(",") if x]
+        )
+        old["image_scale"]["note"] = (
+            "run alone (--image-scale-only); the other entries are from the "
+            "previous full run"
+        )
+        (dest / "inversion.json").write_text(json.dumps(old, indent=2) + "\n")
+        write_manifest(
+            dest / "inversion_manifest",
+            seed=0,
+            config={"bench": "inversion", **vars(args)},
+        )
+        print(json.dumps(old["image_scale"], indent=2))
+        return 0
     rad = ctx.radiance(bands)
     s = ctx.splits[0]
     t0 = time.perf_counter()
@@ -224,9 +252,8 @@ def main(argv=None) -> int:
         "probabilities and the reject test; fit includes the inner-fold choice of "
         "sigma_rel and the conformal calibration",
     }
-    dest = Path(args.out)
     dest.mkdir(parents=True, exist_ok=True)
-    (dest / "inversion.json").write_text(json.dumps(out, indent=2) + "\n")
+    (dest / "inversion.json").write_text(strict_dumps(out, indent=2) + "\n")
     write_manifest(
         dest / "inversion_manifest", seed=0, config={"bench": "inversion", **vars(args)}
     )
@@ -325,6 +352,14 @@ def _scale_run(path: str, n: int) -> dict:
     est = fitted.predict(pix, surface)
     t_inv = time.perf_counter() - t0
     assert len(est) == n
+    rss_f64 = _vm_hwm_kb()
+    # the same inversion scoring in float32 (`Inversion.predict(dtype=)`,
+    # called directly: the `Estimates` rows are the same cost either way)
+    zero = np.zeros(n)
+    fitted.model.predict(warm, None, zero[: len(warm)], dtype="float32")
+    t0 = time.perf_counter()
+    fitted.model.predict(pix, None, zero, dtype="float32")
+    t_f32 = time.perf_counter() - t0
     x = jnp.asarray(pix)
     t_ridge = best_time(lambda: ridge.predict(x))  # compiled for n first
     n_exp = _exp_count(fitted.model)
@@ -337,11 +372,14 @@ def _scale_run(path: str, n: int) -> dict:
         "inversion_pixels_per_s": n / t_inv,
         "ridge_pixels_per_s": n / t_ridge,
         "ratio_inversion_to_ridge": t_inv / t_ridge,
+        "inversion_float32_pixels_per_s": n / t_f32,
+        "ratio_float64_to_float32": t_inv / t_f32,
         "exp_per_pixel": n_exp,
         "exp_floor_pixels_per_s": 1.0 / t_exp,
         "ratio_inversion_to_exp_floor": (t_inv / n) / t_exp,
         "peak_rss_mb_after_imports": rss_start / 1024,
         "peak_rss_mb_after_warmup": rss_warm / 1024,
+        "peak_rss_mb_float64": rss_f64 / 1024,
         "peak_rss_mb": _vm_hwm_kb() / 1024,
         "ru_maxrss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
     }

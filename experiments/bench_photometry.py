@@ -33,7 +33,6 @@ the ratios (baseline time / bandopt time) are the result, not the absolute times
 
 import argparse
 import dataclasses
-import json
 import os
 import platform
 import subprocess
@@ -45,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 import bandopt
+from bandopt.strict_json import strict_dumps
 
 
 @dataclasses.dataclass(frozen=True)
@@ -410,7 +410,7 @@ if __name__ == "__main__":
     report = main(config)
     path = Path(config.output)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(report, indent=2) + "\n")
+    path.write_text(strict_dumps(report, indent=2) + "\n")
     per = {
         k: v["per_spectrum_s"]
         for k, v in report.items()

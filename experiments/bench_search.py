@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from bandopt.strict_json import strict_dumps
+
 
 def _best_of(fn, repeat=5):
     fn()
@@ -248,7 +250,7 @@ def main(argv=None) -> int:
             "by up to 61 % at n = 3. The evaluation rates are those of the run "
             "in the file's manifest (the Adam loop the study used then)."
         )
-        path.write_text(json.dumps(prev, indent=2, default=float) + "\n")
+        path.write_text(strict_dumps(prev, indent=2) + "\n")
         print(f"wrote {path} (eval_rate float32 difference)")
         return 0
 
@@ -257,7 +259,7 @@ def main(argv=None) -> int:
         prev = json.loads(path.read_text()) if path.is_file() else {}
         prev["eval_rate"] = eval_rate_bench()
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(prev, indent=2, default=float) + "\n")
+        path.write_text(strict_dumps(prev, indent=2) + "\n")
         print(f"wrote {path} (eval_rate)")
         return 0
     from bandopt.search import (
@@ -382,7 +384,7 @@ def main(argv=None) -> int:
     out["manifest"] = manifest(seed=0, config=vars(args))
     path = Path(args.out)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(out, indent=2, default=float) + "\n")
+    path.write_text(strict_dumps(out, indent=2) + "\n")
     for r in out["runs"]:
         print(
             f"n={r['n_free_bands']}: grid {r['grid']['n_evals']} evals in "

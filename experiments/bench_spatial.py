@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bandopt.strict_json import strict_dumps
 from bandopt.timing import best_time
 
 
@@ -178,7 +179,7 @@ def main(argv=None) -> int:
     }
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(res, indent=2) + "\n")
+    out.write_text(strict_dumps(res, indent=2) + "\n")
     print(json.dumps(res, indent=2))
     return 0
 

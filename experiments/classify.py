@@ -6,6 +6,9 @@ line.
 
 import argparse
 
+from bandopt.provenance import add_allow_dirty, refuse_dirty_at_start
+from bandopt.results import RESULTS_DIR
+
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -16,7 +19,9 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--report-only", action="store_true", help="rewrite report.md from summary.json"
     )
+    add_allow_dirty(ap)
     args = ap.parse_args(argv)
+    refuse_dirty_at_start(ap, args, args.out or RESULTS_DIR / "classify")
     from bandopt import configure
 
     configure()  # XLA threads and the compilation cache, before JAX loads

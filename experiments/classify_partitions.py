@@ -8,6 +8,9 @@
 
 import argparse
 
+from bandopt.provenance import add_allow_dirty, refuse_dirty_at_start
+from bandopt.results import RESULTS_DIR
+
 
 def main(argv=None) -> int:
     from bandopt import configure
@@ -59,9 +62,13 @@ def main(argv=None) -> int:
         help="output folder (default results/classify_partitions; --quick: "
         "results/classify_partitions/_scratch/quick)",
     )
+    add_allow_dirty(ap)
     args = ap.parse_args(argv)
     if args.partitions < 1:
         raise SystemExit(f"--partitions {args.partitions}: must be >= 1.")
+    default = RESULTS_DIR / "classify_partitions"
+    quick = default / "_scratch" / "quick"
+    refuse_dirty_at_start(ap, args, args.out or (quick if args.quick else default))
     return run(
         args.out,
         partitions=args.partitions,

@@ -11,6 +11,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from bandopt.provenance import add_allow_dirty, refuse_dirty_at_start
+
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "results" / "library"
@@ -21,7 +23,9 @@ def main(argv=None) -> int:
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--before", default=BEFORE_COMMIT, help="commit of 'before'")
+    add_allow_dirty(ap)
     args = ap.parse_args(argv)
+    refuse_dirty_at_start(ap, args, OUT)
     write_report(OUT, before=args.before)
     return 0
 

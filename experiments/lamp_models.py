@@ -10,6 +10,8 @@ lamp_models_manifest.json.
 import argparse
 from pathlib import Path
 
+from bandopt.provenance import add_allow_dirty, refuse_dirty_at_start
+
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "results" / "library"
@@ -33,7 +35,9 @@ def main(argv: list[str] | None = None) -> int:
         "subset; 0: all)",
     )
     p.add_argument("--out", type=Path, default=OUT)
+    add_allow_dirty(p)
     args = p.parse_args(argv)
+    refuse_dirty_at_start(p, args, args.out)
     write_validation(
         args.out,
         classes=args.classes,

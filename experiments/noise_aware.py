@@ -10,6 +10,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from bandopt.provenance import add_allow_dirty, refuse_dirty_at_start
+
 
 def main(argv=None) -> int:
     from bandopt import configure
@@ -22,7 +24,9 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--out", default="results/noise_aware")
+    add_allow_dirty(p)
     args = p.parse_args(argv)
+    refuse_dirty_at_start(p, args, args.out)
 
     from bandopt.search import run_noise_aware
 

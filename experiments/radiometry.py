@@ -27,6 +27,8 @@ touches nothing else.
 import argparse
 import sys
 
+from bandopt.provenance import add_allow_dirty, refuse_dirty_at_start
+
 
 def main(argv=None) -> int:
     from bandopt import configure, radiometry as rad
@@ -50,6 +52,7 @@ def main(argv=None) -> int:
         action="store_true",
         help="only regenerate the radiometry section of results/README.md",
     )
+    add_allow_dirty(ap)
     args = ap.parse_args(argv)
     if args.readme_only:
         print(f"wrote {rad.write_readme()}")
@@ -63,6 +66,7 @@ def main(argv=None) -> int:
     quick = args.quick
     make_config = rad.RadiometryConfig.quick if quick else rad.RadiometryConfig
     out = rad.study_out_dir(label, quick=quick)
+    refuse_dirty_at_start(ap, args, out)
     recommend = args.recommend or (label == "ours" and not quick)
     rec = RESULTS_DIR / RECOMMENDATION if recommend else None
     run_radiometry(

@@ -15,6 +15,8 @@ import argparse
 import time
 from pathlib import Path
 
+from bandopt.provenance import add_allow_dirty, refuse_dirty_at_start
+
 
 OUT = Path("results/robustness")
 """Where the full study writes."""
@@ -33,7 +35,11 @@ def main(argv=None) -> int:
         "--only-partitions", type=int, nargs="+", default=None, metavar="P",
         help="compute only these partitions (the summary covers what is there)",
     )  # fmt: skip
+    add_allow_dirty(ap)
     args = ap.parse_args(argv)
+    refuse_dirty_at_start(
+        ap, args, Path(args.out) if args.out else (QUICK_OUT if args.quick else OUT)
+    )
 
     from bandopt import configure
 

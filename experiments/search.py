@@ -31,6 +31,7 @@ def main(argv=None) -> int:
 
     configure()  # XLA threads and the compilation cache, before JAX loads
     from bandopt import search
+    from bandopt.provenance import add_allow_dirty, refuse_dirty_at_start
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("command", choices=COMMANDS)
@@ -70,7 +71,11 @@ def main(argv=None) -> int:
         "nominal MAE) (default: ridge)",
     )
     p.add_argument("--force", action="store_true", help="recompute cached tasks")
-    args = vars(p.parse_args(argv))
+    add_allow_dirty(p)
+    parsed = p.parse_args(argv)
+    refuse_dirty_at_start(p, parsed, parsed.out)
+    args = vars(parsed)
+    args.pop("allow_dirty")
     command = args.pop("command")
     args["out"] = Path(args["out"])
     args["bands"] = tuple(int(v) for v in args["bands"].split(","))

@@ -11,7 +11,6 @@ fixed design, scored by the study's judge (inversion scorer) on the presets
 photon noise, seed 0.
 """
 
-import json
 import sys
 import time
 
@@ -24,6 +23,7 @@ from bandopt.search import (
     truth_sd,
 )
 from bandopt.sensor.reference import resolve_band_set
+from bandopt.strict_json import strict_dumps
 
 
 KEYS = ("mae_mean", "mae_sd", "f1_mean", "f1_sd", "norm_mae_mean", "partitions")
@@ -48,7 +48,7 @@ def main(path: str) -> None:
             out[f"{name} on {preset} scenes"] = {k: s[k] for k in KEYS}
             print(name, preset, f"{time.time() - t0:.0f} s", file=sys.stderr)
     with open(path, "w") as fh:
-        json.dump(out, fh, indent=1, default=float)
+        fh.write(strict_dumps(out, indent=1))
 
 
 if __name__ == "__main__":

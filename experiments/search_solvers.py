@@ -8,6 +8,8 @@ Run:  python -m experiments.search_solvers [--bands 3,5] [--out results/search_s
 import argparse
 import sys
 
+from bandopt.provenance import add_allow_dirty, refuse_dirty_at_start
+
 
 def main(argv=None) -> int:
     from bandopt import configure
@@ -21,7 +23,9 @@ def main(argv=None) -> int:
     p.add_argument("--partitions", type=int, default=4)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default="results/search_solvers")
+    add_allow_dirty(p)
     args = p.parse_args(argv)
+    refuse_dirty_at_start(p, args, args.out)
     compare_solvers(
         args.out,
         bands=[int(v) for v in args.bands.split(",")],

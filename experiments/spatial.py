@@ -10,6 +10,8 @@ also writes key "spatial" of results/recommendation.json.
 import argparse
 from pathlib import Path
 
+from bandopt.provenance import add_allow_dirty, refuse_dirty_at_start
+
 
 def cli(argv=None) -> int:
     import bandopt
@@ -25,7 +27,10 @@ def cli(argv=None) -> int:
         help="only (re)write key 'spatial' of results/recommendation.json from "
         "the existing OUT/summary.json (no rendering)",
     )
+    add_allow_dirty(p)
     args = p.parse_args(argv)
+    if not args.recommend_only:
+        refuse_dirty_at_start(p, args, args.out)
     if args.recommend_only:
         return recommend_from_summary(Path(args.out))
     bandopt.configure()

@@ -8,6 +8,8 @@ Writes results/spatial/overlap.{json,csv,png} and overlap_manifest/manifest.json
 import argparse
 from pathlib import Path
 
+from bandopt.provenance import add_allow_dirty, refuse_dirty_at_start
+
 
 def main(argv=None) -> Path:
     import bandopt
@@ -18,7 +20,9 @@ def main(argv=None) -> Path:
     p.add_argument("--quick", action="store_true", help="coarser grid, fewer GSDs")
     p.add_argument("--out", default="results/spatial")
     p.add_argument("--seed", type=int, default=0)
+    add_allow_dirty(p)
     args = p.parse_args(argv)
+    refuse_dirty_at_start(p, args, args.out)
     out = Path(args.out)
     rows = run_overlap_study(out, quick=args.quick, seed=args.seed, config=vars(args))
     for r in rows:

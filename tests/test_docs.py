@@ -65,6 +65,131 @@ def test_tutorial_doc_matches_the_script():
     assert '"BANDOPT_LSPDD": "0"' in script and '"--estimator", "inversion"' in script
 
 
+TUTORIAL_QUOTES = (
+    # (the quote, its number or word as a group; the results file; what that
+    # file says the group must be)
+    (
+        r"(\d+) free bands \+ a fixed panchromatic band",
+        "search/recommended_bands.json",
+        lambda d: sum(b["name"].upper() != "PAN" for b in d["bands"]),
+    ),
+    (
+        r"on the (\d+) lamps the search scored",
+        "search/compare.json",
+        lambda d: d["context"]["n_lamps"],
+    ),
+    (
+        r"chosen\s+with the (\w+) as the judge",
+        "search/compare.json",
+        lambda d: d["estimator"]["scorer"],
+    ),
+)
+"""Every result the tutorial quotes, with the file it comes from."""
+
+TUTORIAL_CONSTANTS = {
+    "2 cores": "the machine its run time refers to",
+    "380-900 nm": "the LSPDD's measured range (bandopt.tutorial.LAMPS)",
+    "90 % intervals": "the inversion's interval level",
+    "EN 13201 class P4": "the lighting class of the default scene",
+    "SDGSAT-1": "a sensor's name",
+}
+"""Numbers in the tutorial's prose that are not results."""
+
+
+def _tutorial_prose() -> str:
+    """docs/tutorial.rst without code blocks, inline literals and section
+    numbers: the text whose numbers a reader takes as results."""
+    lines, in_code = [], False
+    for line in (DOCS / "tutorial.rst").read_text().splitlines():
+        if line.startswith(".. code-block::"):
+            in_code = True
+            continue
+        if in_code and (not line.strip() or line.startswith("   ")):
+            continue
+        in_code = False
+        lines.append(re.sub(r"^\d+\. ", "", line))
+    return re.sub(r"``[^`]*``", "", "\n".join(lines))
+
+
+def _drifted(prose: str) -> list[str]:
+    import json
+
+    drift = []
+    for pattern, rel, expected in TUTORIAL_QUOTES:
+        m = re.search(pattern, prose)
+        if m is None:
+            drift.append(f"docs/tutorial.rst no longer quotes /{pattern}/ (from "
+                         f"results/{rel}): update TUTORIAL_QUOTES")
+            continue
+        want = expected(json.loads((ROOT / "results" / rel).read_text()))
+        if m.group(1) != str(want):
+            drift.append(f"docs/tutorial.rst says {m.group(0)!r}, but results/{rel} "
+                         f"gives {want}")
+    return drift
+
+
+def _unsourced_numbers(prose: str) -> list[str]:
+    for pattern, _, _ in TUTORIAL_QUOTES:
+        prose = re.sub(pattern, " ", prose)
+    for phrase in TUTORIAL_CONSTANTS:
+        prose = prose.replace(phrase, " ")
+    prose = re.sub(r"\s+", " ", prose)
+    return [
+        prose[max(0, m.start() - 30): m.end() + 20]
+        for m in re.finditer(r"\d+(?:[.,]\d+)?", prose)
+    ]
+
+
+def test_tutorial_numbers_come_from_the_results():
+    """Each result the tutorial quotes equals its committed file, and the
+    tutorial quotes no number that no file backs (a run time, an error copied
+    from one run): those drift silently."""
+    prose = _tutorial_prose()
+    assert not _drifted(prose), "\n".join(_drifted(prose))
+    found = _unsourced_numbers(prose)
+    assert not found, (
+        "numbers in docs/tutorial.rst with no source (add them to "
+        f"TUTORIAL_QUOTES with their file, or drop them): {found}"
+    )
+
+
+def test_tutorial_number_check_can_fail():
+    """A stale band count, a stale lamp count and a copied run time are each
+    caught, named with the file they contradict."""
+    prose = _tutorial_prose()
+    stale = re.sub(r"\d+( free bands)", r"99\1", prose)
+    assert any("recommended_bands.json gives" in d for d in _drifted(stale))
+    stale = re.sub(r"the \d+ lamps", "the 111 lamps", prose)
+    assert any("compare.json gives" in d for d in _drifted(stale))
+    assert _unsourced_numbers(prose + " (about 4 min each)")
+
+
+def test_tutorial_summary_holds_what_the_doc_says(tmp_path):
+    """The tutorial's summary.json has the estimator, the mean absolute error
+    per sensor and metric (lamps without an estimate left out) and the run
+    times the tutorial page points readers to, in strict JSON."""
+    import json
+
+    from bandopt import tutorial
+
+    rows = [
+        {"sensor": "a", "lamp": "x", "metric": m, "abs_error": e}
+        for m, e in (("LER", 2.0), ("G", 0.5), ("CCT", None))
+    ] + [
+        {"sensor": "a", "lamp": "y", "metric": m, "abs_error": e}
+        for m, e in (("LER", 4.0), ("G", float("nan")), ("CCT", None))
+    ]
+    ev = {"estimator": "inversion", "seconds": {"a": 41.5}}
+    path = tutorial.write_summary(ev, rows, tmp_path)
+    got = json.loads(path.read_text(), parse_constant=lambda c: pytest.fail(c))
+    assert got["estimator"] == "inversion"
+    assert got["evaluate_seconds"] == {"a": 41.5}
+    assert got["mean_abs_error"]["a"]["LER"] == 3.0
+    assert got["mean_abs_error"]["a"]["CCT"] is None
+    assert got["mean_abs_error"]["a"]["G"] is None  # NaN mean: undefined, null
+    assert "summary.json" in (DOCS / "tutorial.rst").read_text()
+
+
 def test_guide_dask_option_exists():
     guide = (DOCS / "guide.rst").read_text()
     assert "--scheduler tcp://" in guide
@@ -93,6 +218,33 @@ def test_sphinx_build_offline(tmp_path, monkeypatch):
     for name in ("build_report", "update_recommendation", "check_consistency"):
         assert name in api
     assert (out / "guide.html").is_file() and (out / "tutorial.html").is_file()
+
+
+def _make_docs_sphinx_args() -> list[str]:
+    """The arguments of the `sphinx` call in the Makefile's `docs` target."""
+    make = (ROOT / "Makefile").read_text()
+    recipe = make[make.index("\ndocs:"):].split("\n\n")[0]
+    line = next(x for x in recipe.splitlines() if "-m sphinx" in x)
+    return line.split("-m sphinx", 1)[1].split()
+
+
+def test_make_docs_fails_on_a_warning(tmp_path):
+    """`make docs` rebuilds every page (`-E`: autodoc pages are otherwise not
+    re-read when only a docstring changed, and their warnings vanish) and its
+    exact Sphinx options turn one warning into a nonzero exit."""
+    from sphinx.cmd import build as sphinx_build
+
+    args = _make_docs_sphinx_args()
+    assert {"-W", "--keep-going", "-E"} <= set(args)
+    assert args[-2:] == ["docs", "docs/_build/html"]
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "conf.py").write_text("")
+    (src / "index.rst").write_text("Title\n=====\n\n:doc:`no-such-page`\n")
+    options = args[:-2]
+    assert sphinx_build.build_main([*options, str(src), str(tmp_path / "bad")]) != 0
+    (src / "index.rst").write_text("Title\n=====\n\nFine.\n")
+    assert sphinx_build.build_main([*options, str(src), str(tmp_path / "ok")]) == 0
 
 
 def _guide_block(title: str) -> str:

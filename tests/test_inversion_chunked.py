@@ -172,3 +172,44 @@ def test_concatenation_and_bad_chunks_are_refused(fitted):
     other = dataclasses.replace(part, level1_labels=part.level1_labels[::-1])
     with pytest.raises(ValueError, match="different inversions"):
         inv_mod.InversionResult.concatenate([part, other])
+
+
+@pytest.mark.parametrize("surface", ["unknown", "class"])
+@pytest.mark.parametrize("told", [False, True])
+def test_float32_scoring_stays_within_its_stated_tolerance(fitted, surface, told):
+    """float32 scoring (shared and per-pixel paths, Moon fitted and told)
+    moves posteriors, type probabilities, estimates and intervals by no more
+    than `FLOAT32_TOLERANCE` from float64, calls the same types, and keeps
+    the estimates' NaN pattern (CCT where it is not meaningful)."""
+    inv, y, moon = fitted
+    inv = dataclasses.replace(inv, surface_mode=surface)
+    s = SURFACES[surface](inv)
+    m = moon if told else None
+    tol = inv_mod.FLOAT32_TOLERANCE
+    r64 = inv.predict(y, s, m)
+    r32 = inv.predict(y, s, m, dtype="float32")
+    for name in ("level1_probabilities", "level2_probabilities", "cct_probability"):
+        d = np.abs(getattr(r32, name) - getattr(r64, name))
+        assert d.max() <= tol["type_probability"], name
+    assert r32.level1 == r64.level1 and r32.level2 == r64.level2
+    np.testing.assert_array_equal(np.isnan(r32.estimate), np.isnan(r64.estimate))
+    ok = np.isfinite(r64.estimate)
+    np.testing.assert_allclose(
+        r32.estimate[ok], r64.estimate[ok], rtol=tol["estimate_rel"]
+    )
+    ok = np.isfinite(r64.interval90)
+    np.testing.assert_allclose(
+        r32.interval90[ok], r64.interval90[ok], rtol=tol["interval_rel"]
+    )
+    noise = inv._predict_noise()
+    sig, fl = [x[0] for x in noise], [x[1] for x in noise]
+    p64, _ = inv.posterior(y, s, sig, moon=m, floors=fl)
+    p32, _ = inv.posterior(y, s, sig, moon=m, floors=fl, dtype=np.float32)
+    assert np.abs(p32 - p64).max() <= tol["posterior"]
+    assert np.abs(p32 - p64).max() > 0  # float32 did run
+
+
+def test_an_unknown_scoring_dtype_is_refused(fitted):
+    inv, y, _ = fitted
+    with pytest.raises(ValueError, match="dtype 'float16': expected one of"):
+        inv.predict(y, dtype="float16")

@@ -570,3 +570,24 @@ def test_nan_in_a_batch_is_found_from_the_integrals():
     np.testing.assert_allclose(full, ph.ler(ext[:-1], wl[:-1], denominator="full"))
     traced = jax.jit(lambda x: ph.ler(x, wl, denominator="full"))(ext)
     np.testing.assert_allclose(traced, full, rtol=1e-12)
+
+
+def test_batch_sizes_compile_in_power_of_two_buckets_with_unchanged_rows():
+    """Every batch size a long process meets (the suite: hundreds) used to
+    compile its own program (~140 memory maps each on CPU) until the kernel's
+    map limit crashed the compiler; sizes 1..40 now share seven buckets, and each
+    row's quantities equal those of the row computed alone (to 1e-12: the
+    host product's summation order depends on the batch)."""
+    rng = np.random.default_rng(3)
+    wl = np.arange(380.0, 901.0)
+    spectra = rng.random((40, wl.size)) * np.linspace(0.2, 2.0, wl.size)
+    before = ph._from_integrals._cache_size()
+    results = [ph.metrics(spectra[:n], wl) for n in range(1, 41)]
+    assert ph._from_integrals._cache_size() - before <= 7  # 1, 2, 4, ..., 32, 64
+    alone = [ph.metrics(spectra[i], wl) for i in (0, 17, 39)]
+    for key in ("LER", "G", "CCT", "Duv", "CCT_flag"):
+        assert np.asarray(results[-1][key]).shape == (40,)
+        for i, one in zip((0, 17, 39), alone, strict=True):
+            np.testing.assert_allclose(
+                np.asarray(results[-1][key])[i], one[key], rtol=1e-12, atol=0
+            )

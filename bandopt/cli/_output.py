@@ -17,44 +17,23 @@
 """
 
 import contextlib
-import json
-import math
 import os
 import sys
 import tempfile
 from pathlib import Path
 
+from ..strict_json import (
+    json_safe as json_safe,  # re-export: the CLI's name
+    strict_dumps,
+)
+
 
 LOCK_NAME = ".bandopt.lock"
 
 
-def json_safe(obj):
-    """`obj` with every non-finite float (NaN, ±inf) replaced by None, numpy
-    scalars and arrays converted to Python; containers are copied."""
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [json_safe(v) for v in obj]
-    if hasattr(obj, "tolist") and callable(obj.tolist):  # numpy array / scalar
-        return json_safe(obj.tolist())
-    return obj
-
-
-def _default(o):
-    if hasattr(o, "tolist"):
-        return json_safe(o.tolist())
-    if isinstance(o, Path):
-        return str(o)
-    return str(o)
-
-
 def dumps(obj, *, indent: int | None = 2) -> str:
     """Strict JSON text of `obj` (non-finite floats as null)."""
-    return json.dumps(
-        json_safe(obj), indent=indent, allow_nan=False, default=_default
-    )
+    return strict_dumps(obj, indent=indent)
 
 
 def print_json(obj, *, indent: int | None = 2, stream=None) -> None:
@@ -224,12 +203,15 @@ class OutputLock:
 
 
 def write_manifest(directory, **kwargs) -> Path:
-    """`bandopt.provenance.manifest` written atomically to `directory`."""
-    from ..provenance import manifest
+    """`bandopt.provenance.manifest` written atomically to `directory`; a
+    folder inside the repository's `results/` needs a clean code tree
+    (`bandopt.provenance.check_clean_tree`)."""
+    from ..provenance import check_clean_tree, manifest
 
+    check_clean_tree(directory)
     return atomic_write_text(
         Path(directory) / "manifest.json",
-        json.dumps(manifest(**kwargs), indent=2, default=str) + "\n",
+        strict_dumps(manifest(**kwargs)) + "\n",
     )
 
 

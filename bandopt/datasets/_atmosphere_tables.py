@@ -10,11 +10,11 @@ command line (`_atmosphere_build`) so that no module of the build is over
 """
 
 import datetime
-import json
 from pathlib import Path
 
 import numpy as np
 
+from ..strict_json import strict_dumps
 from ._atmosphere_sixs import (
     DAY,
     GROUND_REFLECTANCE,
@@ -266,4 +266,4 @@ def _assemble(
         "direct_transmittance_check": direct_check,
         "offnadir_atmosphere_check": offcheck,
     }
-    (out / META_FILE).write_text(json.dumps(meta, indent=1) + "\n")
+    (out / META_FILE).write_text(strict_dumps(meta, indent=1) + "\n")

@@ -40,6 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..strict_json import strict_dumps
+
 
 DATA = Path(__file__).parent / "data"
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "data"
@@ -303,13 +305,13 @@ def build(shared: Path, *, write: bool) -> list[str]:
     put(DATA / "lamps_photobiology" / "spectra.csv", pb_csv.encode())
     put(
         DATA / "lamps_photobiology" / "metadata.json",
-        (json.dumps(pb_meta, indent=1, sort_keys=True) + "\n").encode(),
+        (strict_dumps(pb_meta, indent=1, sort_keys=True) + "\n").encode(),
     )
     cp_csv, cp_meta = color_pollution_spectra(shared)
     put(DATA / "lamps_color_pollution" / "spectra.csv", cp_csv.encode())
     put(
         DATA / "lamps_color_pollution" / "metadata.json",
-        (json.dumps(cp_meta, indent=1, sort_keys=True) + "\n").encode(),
+        (strict_dumps(cp_meta, indent=1, sort_keys=True) + "\n").encode(),
     )
     files = _lspdd_files(shared)
     names = {p.name for p in files}

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..provenance import write_manifest
+from ..strict_json import strict_dumps
 from . import lamps, nir
 
 
@@ -328,7 +329,7 @@ def _compact(r: dict) -> dict:
 
 
 def _write_json(path: Path, data) -> None:
-    path.write_text(json.dumps(data, indent=1) + "\n")
+    path.write_text(strict_dumps(data, indent=1) + "\n")
 
 
 def write_report(out: Path, before: str = BEFORE_COMMIT) -> str:

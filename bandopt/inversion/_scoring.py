@@ -65,6 +65,13 @@ def _design(spectra, weights, cond: Conditions, basis: SurfaceBasis):
     return np.asarray(a), q
 
 
+def _tiny(x):
+    """Guard of the misfits' denominators for `x`'s dtype: 1e-300 in float64,
+    the smallest normal number in float32 (where 1e-300 is 0)."""
+    dt = jnp.result_type(x)
+    return 1e-300 if dt == jnp.float64 else float(jnp.finfo(dt).tiny)
+
+
 def _chi2(yn, w, p, q, beta=None):
     """Weighted NNLS misfit of `yn ≈ α p + β q` (α, β ≥ 0) in closed form,
     broadcast over the leading axes of `p`, `q` (last axis: bands). With
@@ -78,7 +85,7 @@ def _chi2(yn, w, p, q, beta=None):
         return jnp.sum(w.reshape((1,) * (nd - 1) + (-1,)) * u * v, axis=-1)
 
     spp, spy, syy = dot(p, p), dot(p, yn), dot(yn, yn)
-    tiny = 1e-300
+    tiny = _tiny(spp)
     if beta is not None and q is not None:
         sqq, spq, sqy = dot(q, q), dot(p, q), dot(q, yn)
         return _chi2_known(spp, spy, syy, sqq, spq, sqy, beta)
@@ -114,7 +121,7 @@ def _chi2_known(spp, spy, syy, sqq, spq, sqy, beta):
     `_chi2`: `Σw(y-βq)² = syy - 2β sqy + β² sqq`, `Σw p(y-βq) = spy - β spq`."""
     r_py = spy - beta * spq
     r_yy = syy - 2.0 * beta * sqy + beta**2 * sqq
-    a1 = jnp.maximum(r_py, 0.0) / jnp.maximum(spp, 1e-300)
+    a1 = jnp.maximum(r_py, 0.0) / jnp.maximum(spp, _tiny(spp))
     return jnp.maximum(r_yy - a1 * r_py, 0.0)
 
 
@@ -188,7 +195,7 @@ def _score_chunk_shared(y, p, qq, log_ps, log_pk, noise, moon_b=None, all_known=
     yn = y / jnp.where(m > 0, m, 1.0)
     lps = jnp.repeat(log_ps, a)[None, None, :]  # (1, 1, s a), a fastest
     hi = jax.lax.Precision.HIGHEST
-    tiny = 1e-300
+    tiny = _tiny(y)
 
     def grid(x):  # (n, k s a) -> (n, k, s a)
         return x.reshape(x.shape[0], k, s * a)
@@ -355,7 +362,7 @@ def _chunk(base: int, k: int) -> int:
     return c
 
 
-def _score(y, cand, log_ps, a, q, log_pk, noise, moon_b=None, shared=None):
+def _score(y, cand, log_ps, a, q, log_pk, noise, moon_b=None, shared=None, dtype=None):
     """Chunked, padded `_score_chunk`: (log evidence (n, S, k), χ² (n, S));
     `noise (S, 2)`: (`σ_rel`, floor) per band-error model.
     `moon_b` (n,): known Moon amplitudes (relative to `q`'s Moon state; NaN:
@@ -363,7 +370,12 @@ def _score(y, cand, log_ps, a, q, log_pk, noise, moon_b=None, shared=None):
     same surface candidates (`_score_chunk_shared` runs; the caller vouches
     for it); None: decided from these pixels (more than one, all the same), so
     a caller that splits an image into chunks passes the whole image's answer
-    and every chunk, even of one pixel, runs the path the whole image would."""
+    and every chunk, even of one pixel, runs the path the whole image would.
+    `dtype`: of the compiled scoring, float64 (default) or float32
+    (`SCORE_DTYPES`; see `Inversion.predict` for what float32 changes); the
+    results are float64 either way. A float32 score that is not finite
+    raises `FloatingPointError` instead of becoming a NaN posterior."""
+    dt = _score_dtype(dtype)
     noise = np.asarray(noise, float)
     if noise.ndim != 2 or noise.shape[1] != 2:
         raise ValueError(
@@ -404,24 +416,25 @@ def _score(y, cand, log_ps, a, q, log_pk, noise, moon_b=None, shared=None):
         # one set of surface candidates for every pixel (mode 'unknown')
         p = jnp.einsum("kabr,sr->ksab", jnp.asarray(a), jnp.asarray(cand[0]))
         qq = None if q is None else jnp.einsum("abr,sr->sab", q, cand[0])[None]
+        p = p.astype(dt)
         npad = -(-n // shared_chunk) * shared_chunk
-        y = np.concatenate([y, np.ones((npad - n, y.shape[1]))])
+        y = np.concatenate([y, np.ones((npad - n, y.shape[1]))]).astype(dt)
         all_known = moon_b is not None and bool(np.all(np.isfinite(moon_b)))
         mb = (
             None
             if moon_b is None
             else np.concatenate(
                 [moon_b, np.full(npad - n, 0.0 if all_known else np.nan)]
-            )
+            ).astype(dt)
         )
         # the per-chunk arguments go in as numpy slices: `jnp.asarray` of each
         # is an eager op, ~0.3 ms a call, ~8 % of evaluate's predict at 32
         # pixels per chunk; the constant ones are converted once
         const = (
-            None if qq is None else jnp.asarray(qq),
-            jnp.asarray(log_ps[0]),
-            jnp.asarray(log_pk),
-            jnp.asarray(noise),
+            None if qq is None else jnp.asarray(qq, dt),
+            jnp.asarray(log_ps[0], dt),
+            jnp.asarray(log_pk, dt),
+            jnp.asarray(noise, dt),
         )
         lks, chis = [], []
         for i in range(0, npad, shared_chunk):
@@ -432,28 +445,65 @@ def _score(y, cand, log_ps, a, q, log_pk, noise, moon_b=None, shared=None):
                 None if mb is None else mb[i : i + shared_chunk],
                 all_known=all_known,
             )
-            lks.append(np.asarray(lk))
-            chis.append(np.asarray(chi))
-        return np.concatenate(lks)[:n, :, :k], np.concatenate(chis)[:n]
+            lks.append(np.asarray(lk, float))
+            chis.append(np.asarray(chi, float))
+        return _finite(np.concatenate(lks)[:n, :, :k], np.concatenate(chis)[:n], dt)
     y, cand, log_ps = padded(y, 1.0), padded(cand, 0.0), padded(log_ps, 0.0)
     mb = None if moon_b is None else padded(moon_b, np.nan)
     cand[n:, :, 0] = 1.0
     args = (
-        jnp.asarray(a),
-        None if q is None else jnp.asarray(q),
-        jnp.asarray(log_pk),
-        jnp.asarray(noise),
+        jnp.asarray(a, dt),
+        None if q is None else jnp.asarray(q, dt),
+        jnp.asarray(log_pk, dt),
+        jnp.asarray(noise, dt),
     )
     lks, chis = [], []
     for i in range(0, npad, chunk):
         sl = slice(i, i + chunk)
         lk, chi = _score_chunk(
-            jnp.asarray(y[sl]),
-            jnp.asarray(cand[sl]),
-            jnp.asarray(log_ps[sl]),
+            jnp.asarray(y[sl], dt),
+            jnp.asarray(cand[sl], dt),
+            jnp.asarray(log_ps[sl], dt),
             *args,
-            None if mb is None else jnp.asarray(mb[sl]),
+            None if mb is None else jnp.asarray(mb[sl], dt),
         )
-        lks.append(np.asarray(lk))
-        chis.append(np.asarray(chi))
-    return np.concatenate(lks)[:n, :, :k], np.concatenate(chis)[:n]
+        lks.append(np.asarray(lk, float))
+        chis.append(np.asarray(chi, float))
+    return _finite(np.concatenate(lks)[:n, :, :k], np.concatenate(chis)[:n], dt)
+
+
+SCORE_DTYPES = ("float64", "float32")
+"""Dtypes the compiled scoring runs in (`_score(dtype=)`)."""
+
+
+FLOAT32_TOLERANCE = {
+    "posterior": 0.02,
+    "type_probability": 1e-3,
+    "estimate_rel": 0.01,
+    "interval_rel": 0.05,
+}
+"""Most a float32 scoring moves a prediction from the float64 one, as
+tested (`tests/test_inversion_chunked.py`): lamp posterior probabilities and
+level-1/level-2 type probabilities [absolute], estimates and interval
+bounds [relative]. 2-13x the largest differences measured on `bandopt
+evaluate`'s default inversion (see `Inversion.predict`). The misfit has no
+relative bound: where a lamp fits far better than the band error it is a
+difference of nearly equal float32 sums."""
+
+
+def _score_dtype(dtype):
+    """`dtype` (None: float64) as a numpy dtype of `SCORE_DTYPES`."""
+    dt = np.dtype(np.float64 if dtype is None else dtype)
+    if dt.name not in SCORE_DTYPES:
+        raise ValueError(f"dtype {dtype!r}: expected one of {SCORE_DTYPES}.")
+    return dt
+
+
+def _finite(lk, chi, dt):
+    """`lk`, `chi`, checked finite when scored in float32 (where a misfit can
+    overflow); float64 scores are returned as they are."""
+    if dt != np.float64 and not (np.isfinite(lk).all() and np.isfinite(chi).all()):
+        raise FloatingPointError(
+            "float32 scoring gave a non-finite score; use dtype=float64."
+        )
+    return lk, chi

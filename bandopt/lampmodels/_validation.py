@@ -32,7 +32,6 @@ calibration lamp left) and says so.
 """
 
 import csv
-import json
 import time
 from pathlib import Path
 
@@ -40,7 +39,8 @@ import numpy as np
 
 from ..datasets.lamps import library
 from ..photometry import metrics
-from ..provenance import manifest
+from ..provenance import check_clean_tree, manifest
+from ..strict_json import strict_dumps
 from ._calibrate import (
     SHRINKAGE,
     calibrate_fits,
@@ -348,7 +348,7 @@ def write_validation(
         "summary": summary,
         "seconds": round(time.time() - t0, 1),
     }
-    (out / "lamp_models.json").write_text(json.dumps(result, indent=1) + "\n")
+    (out / "lamp_models.json").write_text(strict_dumps(result, indent=1) + "\n")
     keys = list(dict.fromkeys(k for r in rows for k in r))
     with open(out / "lamp_models.csv", "w", newline="") as fh:
         wr = csv.DictWriter(fh, fieldnames=keys)
@@ -357,8 +357,9 @@ def write_validation(
     validation_figure(examples, summary, out / "lamp_models.png")
     # beside the lamp-library report's manifest.json in the same folder, under
     # its own name
+    check_clean_tree(out)
     (out / "lamp_models_manifest.json").write_text(
-        json.dumps(manifest(seed=seed, config=config), indent=2, default=str) + "\n"
+        strict_dumps(manifest(seed=seed, config=config), indent=2) + "\n"
     )
     print(f"wrote {out}/lamp_models.json, .csv, .png", flush=True)
     return result

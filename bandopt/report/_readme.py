@@ -73,10 +73,16 @@ def classification_text(summary: dict) -> str:
     return parts[0] + "\n" + " ".join(parts[1:])
 
 
+def _defined(v) -> bool:
+    """A number that is there: strict JSON writes an undefined one as null
+    (older files as NaN)."""
+    return v is not None and not math.isnan(v)
+
+
 def _span(values, fmt="{:.2f}") -> str:
     """`lo-hi` of the finite `values` formatted by `fmt` (one number when
     both read the same)."""
-    vals = [v for v in values if v is not None and not math.isnan(v)]
+    vals = [v for v in values if _defined(v)]
     lo, hi = fmt.format(min(vals)), fmt.format(max(vals))
     return lo if lo == hi else f"{lo}-{hi}"
 
@@ -98,7 +104,7 @@ def spatial_text(summary: dict, overlap: dict | None) -> str:
     )
     if overlap:
         rows = overlap["rows"]
-        pure = [r for r in rows if not math.isnan(r["f1_pure"])]
+        pure = [r for r in rows if _defined(r["f1_pure"])]
         text += (
             " Overlapping lamp types (`overlap.json`, `overlap.png`): pixels lit by "
             f"one type are identified with F1 {_span(r['f1_pure'] for r in pure)} "

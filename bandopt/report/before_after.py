@@ -24,12 +24,12 @@ Writes `results/before_after.json` (strict JSON), its provenance manifest
 """
 
 import argparse
-import json
 import math
 from pathlib import Path
 
-from ..provenance import write_manifest
+from ..provenance import check_clean_tree, write_manifest
 from ..results import update_readme_section
+from ..strict_json import strict_dumps
 from ._before_after_files import (
     ABSENT as ABSENT,
     NOT_RUN as NOT_RUN,
@@ -314,10 +314,12 @@ def readme_text(record: dict) -> str:
 
 
 def write(record: dict, results: str | Path = "results", *, config=None) -> Path:
-    """`before_after.json`, its manifest and the README section in `results`."""
+    """`before_after.json`, its manifest and the README section in `results`
+    (nothing written when the manifest would be refused: `check_clean_tree`)."""
     root = Path(results)
+    check_clean_tree(root / "before_after_manifest")
     path = root / "before_after.json"
-    path.write_text(json.dumps(record, indent=2, allow_nan=False) + "\n")
+    path.write_text(strict_dumps(record, indent=2) + "\n")
     write_manifest(root / "before_after_manifest", config=config or {})
     update_readme_section(SECTION, readme_text(record), results_dir=root)
     return path

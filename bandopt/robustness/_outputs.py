@@ -3,12 +3,12 @@
 row, and the reliability diagram of the level-1 probabilities), `README.md`
 and the manifest (`write_outputs`)."""
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from ..provenance import write_manifest
+from ..strict_json import strict_dumps
 
 
 def _cell(row: dict, col: str, digits: int, sd: bool = True) -> str:
@@ -173,7 +173,7 @@ def write_outputs(summary: dict, study, out: Path) -> None:
     """`summary.json` (strict JSON), the figure, `README.md` and the
     manifest of a finished run."""
     out.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(summary, indent=2, allow_nan=False)
+    text = strict_dumps(summary, indent=2)
     (out / "summary.json").write_text(text + "\n")
     figure(summary, out / "robustness.png")
     (out / "README.md").write_text(readme_text(summary, out))

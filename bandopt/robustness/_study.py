@@ -18,6 +18,7 @@ from ..names import validate_method
 from ..results import RESULTS_DIR
 from ..search import get_context
 from ..sensor.reference import resolve_band_set
+from ..strict_json import strict_dumps
 
 
 KINDS = (
@@ -549,7 +550,7 @@ def load_records(path: Path, study: RobustnessStudy, resume: bool):
         if (r["partition"], r["band_set"]) in done and r["perturbation"] in need
     ]
     with _open(path, "wt") as fh:
-        fh.writelines(json.dumps(r) + "\n" for r in kept)
+        fh.writelines(strict_dumps(r, indent=None) + "\n" for r in kept)
     return kept, done
 
 
@@ -581,7 +582,7 @@ def run_study(
                 continue
             recs = run_partition(study, part, label, b, perturbed, log)
             with _open(Path(records_path), "at") as fh:
-                fh.writelines(json.dumps(r) + "\n" for r in recs)
+                fh.writelines(strict_dumps(r, indent=None) + "\n" for r in recs)
             records += recs
             log(f"partition {p}, {label}: done ({len(recs)} records)")
     return records

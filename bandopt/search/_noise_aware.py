@@ -11,11 +11,11 @@ band on all scored lamps (outer-fold CV loss), each level a resumable task of
 manifest.json and tasks/ into its folder.
 """
 
-import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from ..provenance import write_manifest
+from ..strict_json import strict_dumps
 from ._sweep import print_progress, run_sweep
 from ._task import make_task
 
@@ -73,7 +73,7 @@ def run_noise_aware(
         )
     out = Path(out)
     (out / "noise_aware.json").write_text(
-        json.dumps(
+        strict_dumps(
             {
                 "rows": rows,
                 "note": f"{n_bands} free bands + fixed pan, target all, all scored "

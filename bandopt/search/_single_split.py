@@ -26,6 +26,7 @@ from ..estimate import METRICS, UNITS, cv_loss, ratio_features
 from ..provenance import write_manifest
 from ..sensor import BandSet
 from ..sensor.reference import REFERENCE_SENSORS
+from ..strict_json import strict_dumps
 from ._compare import compare_with_references
 from ._context import get_context
 from ._figures import plot_error_vs_bands, plot_v_band
@@ -219,7 +220,7 @@ def single_split_compare(options: SearchOptions) -> dict:
         "loss_note": LOSS_NOTE,
     }
     (out / "single_split_compare.json").write_text(
-        json.dumps(summary, indent=2, default=float) + "\n"
+        strict_dumps(summary, indent=2) + "\n"
     )
     _write_compare_csv(out / "single_split_compare.csv", ref_sum, ours)
     plot_error_vs_bands(ours, ref_sum, out / "single_split_error_vs_bands.png")
@@ -244,7 +245,7 @@ def single_split_compare(options: SearchOptions) -> dict:
             title=f"Recommended {rec_name} bands over mean lamp-class spectra",
         )
     vb = v_band_experiment(ctx, seed=options.seed)
-    (out / "v_band.json").write_text(json.dumps(vb, indent=2, default=float) + "\n")
+    (out / "v_band.json").write_text(strict_dumps(vb, indent=2) + "\n")
     plot_v_band(vb, out / "v_band.png")
     write_manifest(
         out / "single_split",
@@ -331,5 +332,5 @@ def single_split_budget(options: SearchOptions) -> list[dict]:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    (out / "budget_table.json").write_text(json.dumps(rows, indent=2) + "\n")
+    (out / "budget_table.json").write_text(strict_dumps(rows, indent=2) + "\n")
     return rows

@@ -17,7 +17,6 @@ Run:  python -m experiments.search_solvers [--bands 3,5] [--out results/search_s
 """
 
 import functools
-import json
 import os
 import sys
 import time
@@ -29,6 +28,7 @@ import numpy as np
 import optax
 
 from ..provenance import write_manifest
+from ..strict_json import strict_dumps
 from ._analysis import design_intervals
 from ._stability import (
     batched_loss,
@@ -266,7 +266,7 @@ def compare_solvers(
         "context": ctx.config,
     }
     (out / "compare.json").write_text(
-        json.dumps(result, indent=1, default=float) + "\n"
+        strict_dumps(result, indent=1) + "\n"
     )
     write_manifest(out, seed=seed, config=config)
     print(f"wrote {out / 'compare.json'}")

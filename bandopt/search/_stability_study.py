@@ -13,7 +13,6 @@ where the last two go).
 """
 
 import csv
-import json
 import sys
 import time
 from pathlib import Path
@@ -23,6 +22,7 @@ import numpy as np
 from ..estimate import METRICS, UNITS
 from ..provenance import write_manifest
 from ..results import update_readme_section, update_recommendation
+from ..strict_json import strict_dumps
 from ._analysis import (
     NORMALISATION_NOTE,
     PARETO_RULE,
@@ -262,15 +262,14 @@ def run_study(options: SearchOptions) -> dict:
         "context": ctx.config,
     }
     (out / "compare.json").write_text(
-        json.dumps(summary_json, indent=1, default=float) + "\n"
+        strict_dumps(summary_json, indent=1) + "\n"
     )
     _write_compare_csv(out / "compare.csv", designs, ref_sum)
     # Pareto and stability outputs
     (out / "pareto.json").write_text(
-        json.dumps(
+        strict_dumps(
             {"rule": PARETO_RULE, "recommended": rec_key, "candidates": cands},
             indent=1,
-            default=float,
         )
         + "\n"
     )
@@ -294,7 +293,7 @@ def run_study(options: SearchOptions) -> dict:
             )
         ],
     }
-    (out / "stability.json").write_text(json.dumps(stab_json, indent=1) + "\n")
+    (out / "stability.json").write_text(strict_dumps(stab_json, indent=1) + "\n")
     plot_stability(
         stab_json["per_resample"],
         stab,
@@ -315,7 +314,7 @@ def run_study(options: SearchOptions) -> dict:
         w = csv.DictWriter(fh, fieldnames=list(analysis.rows[0]))
         w.writeheader()
         w.writerows(analysis.rows)
-    (out / "tolerance.json").write_text(json.dumps(tol, indent=1) + "\n")
+    (out / "tolerance.json").write_text(strict_dumps(tol, indent=1) + "\n")
     # recommendation
     shipped = out.resolve() == DEFAULT_OUT.resolve()
     update_recommendation(

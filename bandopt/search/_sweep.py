@@ -29,6 +29,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from .._config import configure
+from ..strict_json import strict_dumps
 from ._task import run_task, task_id
 
 
@@ -48,7 +49,7 @@ def _write_json(path: Path, data) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".json")
     with os.fdopen(fd, "w") as fh:
-        json.dump(data, fh, indent=1, default=float)
+        fh.write(strict_dumps(data, indent=1))
         fh.write("\n")
     mask = os.umask(0)
     os.umask(mask)

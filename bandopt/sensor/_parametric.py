@@ -16,7 +16,6 @@ set is read from are checked in `_band_json`; the range and bounds both
 share are `_band_common`'s.
 """
 
-import json
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -27,6 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from ..strict_json import strict_dumps
 from ._band_common import (
     DATA_RANGE_NM,
     MIN_FWHM_NM,
@@ -311,7 +311,7 @@ class BandSet(eqx.Module):
     def to_json(self, path: str | os.PathLike | None = None) -> str:
         """JSON `{"name", "range_nm", "bands": [{"name", "centre_nm", "fwhm_nm",
         "shape_k"}]}`; written to `path` when given. Returns the text."""
-        text = json.dumps(self.to_dict(), indent=2) + "\n"
+        text = strict_dumps(self.to_dict(), indent=2) + "\n"
         if path is not None:
             Path(path).write_text(text)
         return text

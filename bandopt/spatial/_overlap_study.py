@@ -10,13 +10,13 @@ quantisation, and each lit pixel is classified (`bandopt.classify`;
 overlap.{json,csv,png} and overlap_manifest/manifest.json.
 """
 
-import json
 from pathlib import Path
 
 from ..datasets import atmosphere as atm
 from ..provenance import write_manifest
 from ..results import recommended_band_set
 from ..sensor import reference_sensor
+from ..strict_json import strict_dumps
 from ._imaging import GSDS_M
 from ._layout import load_layout
 from ._overlap import lamp_type_f1_when_overlapping, per_type_radiance
@@ -71,10 +71,9 @@ def run_overlap_study(
             ).as_dict()
         )
     (out / "overlap.json").write_text(
-        json.dumps(
+        strict_dumps(
             {"bands": source, "atmosphere": atmosphere, "dx_m": dx, "rows": rows},
             indent=2,
-            default=float,
         )
         + "\n"
     )

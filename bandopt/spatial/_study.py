@@ -32,6 +32,7 @@ from ..datasets import atmosphere as atm
 from ..provenance import write_manifest
 from ..results import update_recommendation
 from ..sensor import reference_sensor
+from ..strict_json import strict_dumps
 from ._imaging import GSDS_M, block_mean
 from ._layout import arrangement, load_layout
 from ._render import render, resolve_flux
@@ -230,7 +231,7 @@ def run_gsd_study(study: GsdStudy, out: Path) -> dict:
         "overlapping_lamp_types": "see overlap.json / overlap.png "
         "(python -m experiments.spatial_overlap, run by `make spatial`)",
     }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=str) + "\n")
+    (out / "summary.json").write_text(strict_dumps(summary, indent=2) + "\n")
     _markdown(out, summary, study)
     write_manifest(out, seed=study.seed, config=dataclasses.asdict(study))
     recommend_spatial(summary, study)
@@ -300,7 +301,7 @@ def _write_tables(out: Path, rows: list[dict], table: list[dict]) -> None:
             w = csv.DictWriter(f, keys)
             w.writeheader()
             w.writerows(data)
-        (out / f"{name}.json").write_text(json.dumps(data, indent=1) + "\n")
+        (out / f"{name}.json").write_text(strict_dumps(data, indent=1) + "\n")
 
 
 def _save_fine(out: Path, name: str, scene) -> None:

@@ -2,11 +2,11 @@
 single-lamp cross-sections with the DoG response (thesis Figs. 4.8-4.9) and
 F1 against GSD; the GSD images are also written as float32 TIFF."""
 
-import json
 from pathlib import Path
 
 import numpy as np
 
+from ..strict_json import strict_dumps
 from ._evaluate import cross_section, true_targets
 
 
@@ -127,7 +127,7 @@ def _cross_sections(out: Path, gsds, keep: dict) -> None:
         fig.tight_layout()
         fig.savefig(out / fname, dpi=100)
         plt.close(fig)
-    (out / "cross_sections.json").write_text(json.dumps(data) + "\n")
+    (out / "cross_sections.json").write_text(strict_dumps(data, indent=None) + "\n")
 
 
 def _f1_plot(out: Path, f1_needed: float, table: list[dict]) -> None:

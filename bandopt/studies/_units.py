@@ -10,10 +10,11 @@ import sys
 import time
 from pathlib import Path
 
-from ..provenance import write_manifest
+from ..provenance import add_allow_dirty, refuse_dirty_at_start, write_manifest
 from ..results import update_readme_section
 from ..sensor import BandSet
 from ..sensor.reference import resolve
+from ..strict_json import strict_dumps
 
 
 CONTIGUOUS = "contiguous-"
@@ -72,14 +73,18 @@ def keep_unit(rec_path: Path, recs: list[dict]) -> list[dict]:
     them whatever fails later) and return them."""
     with rec_path.open("a") as fh:
         for r in recs:
-            fh.write(json.dumps(r) + "\n")
+            fh.write(strict_dumps(r, indent=None) + "\n")
     return recs
 
 
 def partition_args(argv, description: str, out: str, unseen: bool = True):
     """The command line of a partitioned, resumable study: `--partitions`,
     `--out` (default `out`), `--resume`, `--only-partitions` and, with
-    `unseen`, `--no-unseen`; (args, the partitions to compute)."""
+    `unseen`, `--no-unseen`, and `--allow-dirty`; (args, the partitions to
+    compute). An output folder inside the repository's `results/` is refused
+    here, before any computation, while the code tree is dirty
+    (`bandopt.provenance.check_clean_tree`) unless `--allow-dirty` (which sets
+    `BANDOPT_ALLOW_DIRTY=1` for the run's manifest too)."""
     ap = argparse.ArgumentParser(description=description)
     ap.add_argument("--partitions", type=int, default=4, help="lamp partitions")
     ap.add_argument("--out", default=None, help=f"output (default {out})")
@@ -100,6 +105,7 @@ def partition_args(argv, description: str, out: str, unseen: bool = True):
         "parallel processes with their own --out; concatenate their "
         "records.jsonl and summarise with --resume)",
     )
+    add_allow_dirty(ap)
     args = ap.parse_args(argv)
     if args.partitions < 1:
         ap.error("--partitions must be >= 1.")
@@ -108,6 +114,7 @@ def partition_args(argv, description: str, out: str, unseen: bool = True):
         ap.error(f"--only-partitions {only}: each must be in 0..{args.partitions - 1}.")
     if only is not None and args.out is None:
         ap.error("--only-partitions needs its own --out (a partial summary).")
+    refuse_dirty_at_start(ap, args, args.out or out)
     return args, range(args.partitions) if only is None else only
 
 
@@ -144,7 +151,7 @@ def write_outputs(
     `update_readme_section` of `readme(summary)`; a default run),
     `manifest.json` (`seed`, `config`), and the closing progress line via
     `say` (`t0`: start time [s since the epoch]); returns the exit status 0."""
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    (out / "summary.json").write_text(strict_dumps(summary, indent=2) + "\n")
     for draw, name in figures:
         draw(summary, out / name)
     if section is not None:

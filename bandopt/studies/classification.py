@@ -54,6 +54,7 @@ from ..provenance import write_manifest
 from ..results import RESULTS_DIR, recommended_band_set, update_recommendation
 from ..scene import build_scenarios
 from ..sensor import REFERENCE_SENSORS, reference_sensor
+from ..strict_json import strict_dumps
 from ._classification_report import (
     GOAL_MARGIN as GOAL_MARGIN,
     figures as figures,
@@ -465,7 +466,7 @@ def run(
         "wall_s": time.perf_counter() - t0,
     }
     (to / "summary.json").write_text(
-        json.dumps(summary_json, indent=2, default=str) + "\n"
+        strict_dumps(summary_json, indent=2) + "\n"
     )
     figures(to, tables, conf2, classes2)
     write_report(to, summary_json)

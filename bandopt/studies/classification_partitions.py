@@ -65,6 +65,7 @@ from ..provenance import git_commit, write_manifest
 from ..results import RESULTS_DIR, recommended_band_set, update_readme_section
 from ..scene import build_scenarios
 from ..sensor import REFERENCE_SENSORS, reference_sensor
+from ..strict_json import strict_dumps
 from ._partitions import (
     ESTIMATORS as ESTIMATORS,
     MODELLED_PER_CLASS as MODELLED_PER_CLASS,
@@ -214,7 +215,7 @@ def _score(todo, records, table, designs, shas, settings, rec_path, t0) -> None:
             settings=settings,
         )
         with rec_path.open("a") as fh:
-            fh.write(json.dumps(rec) + "\n")
+            fh.write(strict_dumps(rec, indent=None) + "\n")
             fh.flush()
             os.fsync(fh.fileno())
         records.append(rec)
@@ -368,7 +369,7 @@ def run(
         this_run_s=time.perf_counter() - t0, units_this_run=len(todo)
     )
     rows = summary["rows"]
-    (to / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    (to / "summary.json").write_text(strict_dumps(summary, indent=2) + "\n")
     write_csv(to / "summary.csv", rows)
     write_csv(to / "paired.csv", summary["paired"])
     figure(rows, to / "f1_partitions.png", parts)

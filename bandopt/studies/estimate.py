@@ -52,9 +52,10 @@ from pathlib import Path
 
 from .. import inversion as inv_mod
 from ..inversion import MIN_CALIBRATION_LAMPS, MODELLED_CLASSES
-from ..provenance import write_manifest
+from ..provenance import add_allow_dirty, refuse_dirty_at_start, write_manifest
 from ..results import update_readme_section, update_recommendation
 from ..search import get_context
+from ..strict_json import strict_dumps
 from ._estimate_report import (
     EVIDENCE as EVIDENCE,
     INVERSIONS as INVERSIONS,
@@ -115,6 +116,7 @@ def run(argv=None) -> int:
         help="recompute summaries, figures, the README section and the "
         "recommendation.json part from records.jsonl / unseen_types.json",
     )
+    add_allow_dirty(ap)
     args = ap.parse_args(argv)
     if args.modelled_per_class < 0:
         ap.error("--modelled-per-class must be >= 0.")
@@ -122,6 +124,7 @@ def run(argv=None) -> int:
     out = Path(
         args.out or ("results/estimate_quick" if args.quick else "results/estimate")
     )
+    refuse_dirty_at_start(ap, args, out)
     out.mkdir(parents=True, exist_ok=True)
     preset = "tiny" if args.quick else "search"
     parts = 1 if args.quick else args.partitions
@@ -154,22 +157,22 @@ def run(argv=None) -> int:
     for name in args.band_sets:
         if name != "recommended" and "recommended" in args.band_sets:
             paired += inv_mod.paired_differences(summary, "recommended", name)
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    (out / "paired.json").write_text(json.dumps(paired, indent=2) + "\n")
+    (out / "summary.json").write_text(strict_dumps(summary, indent=2) + "\n")
+    (out / "paired.json").write_text(strict_dumps(paired, indent=2) + "\n")
     variants = inv_mod.estimator_differences(summary)
-    (out / "estimator_paired.json").write_text(json.dumps(variants, indent=2) + "\n")
+    (out / "estimator_paired.json").write_text(strict_dumps(variants, indent=2) + "\n")
     write_summary_csv(summary, out / "summary.csv")
     unseen = None
     if args.summarise_only and (out / "unseen_types.json").is_file():
         unseen = json.loads((out / "unseen_types.json").read_text())
     elif not args.no_unseen:
         unseen = unseen_types(preset, args.band_sets, n_model)
-        (out / "unseen_types.json").write_text(json.dumps(unseen, indent=2) + "\n")
+        (out / "unseen_types.json").write_text(strict_dumps(unseen, indent=2) + "\n")
     figures(summary, unseen, out, preset)
     if "recommended" in args.band_sets:
         spectra_figure(out, preset)
     coverage = interval_coverage(summary, unseen)
-    (out / "coverage.json").write_text(json.dumps(coverage, indent=2) + "\n")
+    (out / "coverage.json").write_text(strict_dumps(coverage, indent=2) + "\n")
     default_run = args.out is None and not args.quick
     if default_run:
         update_readme_section(

@@ -45,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from ..datasets.lamps import library
+from ..provenance import add_allow_dirty, refuse_dirty_at_start
 from ._external_tm30_scores import (
     BOOTSTRAP as BOOTSTRAP,
     CCT_NULL_K as CCT_NULL_K,
@@ -272,9 +273,11 @@ def run(argv=None) -> int:
     ap.add_argument(
         "--out", default=None, help="output (default results/external_tm30)"
     )
+    add_allow_dirty(ap)
     args = ap.parse_args(argv)
 
     out = Path(args.out or "results/external_tm30")
+    refuse_dirty_at_start(ap, args, out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.time()
     lib = library(tm30=True, extend_nir=False)

@@ -24,7 +24,6 @@ and the `estimate-moon` section of `results/README.md` (default output only).
 """
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -32,9 +31,10 @@ from pathlib import Path
 import numpy as np
 
 from .. import inversion as inv_mod
-from ..provenance import write_manifest
+from ..provenance import add_allow_dirty, refuse_dirty_at_start, write_manifest
 from ..results import update_readme_section
 from ..search import PRESETS, get_context
+from ..strict_json import strict_dumps
 from ._study import unseen_records
 from ._text import diff_cells, held_out, unseen_lines
 from ._units import band_set
@@ -159,11 +159,13 @@ def run(argv=None) -> int:
     ap.add_argument(
         "--out", default=None, help="output folder (default results/estimate_moon)"
     )
+    add_allow_dirty(ap)
     args = ap.parse_args(argv)
     if args.partitions < 1:
         ap.error("--partitions must be >= 1.")
 
     out = Path(args.out or "results/estimate_moon")
+    refuse_dirty_at_start(ap, args, out)
     out.mkdir(parents=True, exist_ok=True)
     rows, all_recs, paired = [], [], []
     t0 = time.time()
@@ -224,10 +226,10 @@ def run(argv=None) -> int:
         "rows": rows,
         "paired": paired,
     }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    (out / "summary.json").write_text(strict_dumps(summary, indent=2) + "\n")
     with (out / "records.jsonl").open("w") as fh:
         for r in all_recs:
-            fh.write(json.dumps(r) + "\n")
+            fh.write(strict_dumps(r, indent=None) + "\n")
     if args.out is None:
         update_readme_section(
             "estimate-moon",

@@ -45,6 +45,7 @@ import numpy as np
 from .. import inversion as inv_mod
 from ..datasets.lamps import library
 from ..datasets.nir import EXTENSION_START_NM
+from ..provenance import add_allow_dirty, refuse_dirty_at_start
 from ..search import get_context
 from ._ceiling import (
     BANDS_FEATURE as BANDS_FEATURE,
@@ -136,8 +137,10 @@ def run(argv=None) -> int:
     returns the exit status."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=None, help=f"output (default {OUT})")
+    add_allow_dirty(ap)
     args = ap.parse_args(argv)
     out = Path(args.out or OUT)
+    refuse_dirty_at_start(ap, args, out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.time()
     ctx = get_context("search", None, 0, "auto")
