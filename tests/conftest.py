@@ -30,3 +30,30 @@ def _model_cache(tmp_path_factory, monkeypatch):
     never reads a fit another test stored (one may have monkeypatched the
     fit) and never writes into the user's cache."""
     monkeypatch.setenv("BANDOPT_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
+
+
+MAPS_BEFORE_CLEARING = 20_000
+"""Memory maps of this process above which compiled programs are released
+after a test module. Every XLA:CPU executable holds tens to hundreds of maps,
+and the suite compiles thousands (one per function and shape); the kernel's
+limit (vm.max_map_count, 65530 by default) once crashed the compiler with
+SIGSEGV two thirds into the suite. Released programs come back from the
+persistent compilation cache when a later module needs them."""
+
+
+def _memory_maps() -> int:
+    try:
+        with open(f"/proc/{os.getpid()}/maps") as f:
+            return sum(1 for _ in f)
+    except OSError:  # not Linux: no such limit to watch
+        return 0
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _release_compiled_programs():
+    yield
+    if _memory_maps() > MAPS_BEFORE_CLEARING:
+        import gc
+
+        jax.clear_caches()
+        gc.collect()
