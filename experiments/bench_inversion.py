@@ -111,7 +111,7 @@ def main(argv=None) -> int:
             "run alone (--image-scale-only); the other entries are from the "
             "previous full run"
         )
-        (dest / "inversion.json").write_text(json.dumps(old, indent=2) + "\n")
+        (dest / "inversion.json").write_text(strict_dumps(old) + "\n")
         write_manifest(
             dest / "inversion_manifest",
             seed=0,

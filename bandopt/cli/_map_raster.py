@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..strict_json import strict_dumps
+
 
 NODATA = -9999.0
 """Nodata value of every output GeoTIFF (float32)."""
@@ -288,7 +290,7 @@ class Ledger:
 
     def _write_line(self, rec: dict, mode: str = "a") -> None:
         with open(self.path, mode) as fh:
-            fh.write(json.dumps(rec) + "\n")
+            fh.write(strict_dumps(rec, indent=None) + "\n")
             fh.flush()
             os.fsync(fh.fileno())
 
