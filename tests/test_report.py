@@ -88,6 +88,19 @@ def test_every_section_present_in_order(built):
     assert page.sections == [sid for sid, _, _ in SECTIONS]
 
 
+def test_page_is_readable_on_a_phone(built):
+    """A viewport declaration (without it phones render a 980 px desktop page
+    scaled down) and a narrow-screen layout: one-column contents, smaller
+    table text; wide tables scroll inside their section."""
+    res, _ = built
+    text = res.path.read_text()
+    head = text[: text.index("</head>")]
+    viewport = '<meta name="viewport" content="width=device-width, initial-scale=1">'
+    assert viewport in head
+    assert "@media (max-width:700px)" in head
+    assert "section{overflow-x:auto}" in head
+
+
 def test_every_number_comes_from_its_file(built):
     res, page = built
     assert len(page.nums) > 300  # Table 5.1, comparison, band count, radiometry, ...

@@ -27,6 +27,8 @@ figcaption{font-size:.9em;color:#444}
 .note{font-size:.9em;color:#444}
 nav ol{columns:2}
 code{font-size:.92em}
+@media (max-width:700px){body{padding:.5em .8em}nav ol{columns:1}
+table{font-size:.8em}th,td{padding:.2em .35em}}
 """
 
 
@@ -70,6 +72,7 @@ def page(title: str, sections: list[tuple[str, str, str]], *, header: str) -> st
     body = "".join(section(sid, t, h) for sid, t, h in sections)
     return (
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+        '<meta name="viewport" content="width=device-width, initial-scale=1">'
         f"<title>{esc(title)}</title><style>{CSS}</style></head><body>"
         f"<h1>{esc(title)}</h1>{header}<nav><h2>Contents</h2><ol>{toc}</ol></nav>"
         f"{body}</body></html>\n"
