@@ -375,3 +375,59 @@ def test_search_solvers_and_converged_designs_are_shown(small, tmp_path):
     assert got[("recommendation.json", "/spectral/search/designs_converged")] == "11"
     assert got[("search/compare.json",
                 "/designs/n5+pan a=0/convergence/designs_converged")] == "9"
+
+
+def _verdict_rows(path: Path) -> dict[str, list[str]]:
+    """First cell -> text cells of the verdict section's tables."""
+    import re
+
+    text = path.read_text()
+    start = text.index('<section id="verdict">')
+    section = text[start : text.index("</section>", start)]
+    rows = {}
+    for tr in re.findall(r"<tr>(.*?)</tr>", section):
+        cells = [
+            re.sub(r"<[^>]+>", "", c).strip()
+            for c in re.findall(r"<td>(.*?)</td>", tr)
+        ]
+        if cells:
+            rows[cells[0]] = cells
+    return rows
+
+
+def test_verdict_states_every_target_from_the_robustness_suite(tmp_path):
+    """The first section gives each target its pass/fail from the shipped
+    estimator's clean row (`results/robustness`) and each band's SNR verdict
+    from the radiometry; moving a value across its target flips the verdict,
+    and without the suite the section says what to run."""
+    for rel in ("robustness/summary.json", "robustness/README.md",
+                "radiometry/limits.csv", "radiometry/summary.json"):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(RESULTS / rel, tmp_path / rel)
+    summary = json.loads((RESULTS / "robustness/summary.json").read_text())
+    ours = next(
+        i for i, r in enumerate(summary["rows"])
+        if r["band_set"] == "recommended" and r["perturbation"] == "clean"
+    )
+    res = build_report(tmp_path, tmp_path / "out", strict=False)
+    assert SECTIONS[0][0] == "verdict"
+    rows = _verdict_rows(res.path)
+    g = rows["G index error (class-balanced MAE)"]
+    assert g[1] == "≤ 0.25"
+    assert g[3] == ("pass" if summary["rows"][ours]["G"] <= 0.25 else "fail")
+    limits = list(csv.DictReader((RESULTS / "radiometry/limits.csv").read_text()
+                                 .splitlines()))
+    for r in limits:
+        if r["band_set"] == "ours":
+            want = "pass" if r["meets_snr_target"] == "True" else "fail"
+            assert rows[r["band"]][2] == want
+
+    summary["rows"][ours]["G"] = 0.26 if summary["rows"][ours]["G"] <= 0.25 else 0.2
+    (tmp_path / "robustness/summary.json").write_text(json.dumps(summary))
+    flipped = _verdict_rows(build_report(tmp_path, tmp_path / "o2", strict=False).path)
+    assert flipped["G index error (class-balanced MAE)"][3] != g[3]
+
+    (tmp_path / "robustness/summary.json").unlink()
+    text = build_report(tmp_path, tmp_path / "o3", strict=False).path.read_text()
+    start = text.index('<section id="verdict">')
+    assert "make robustness" in text[start : text.index("</section>", start)]

@@ -60,6 +60,7 @@ MAX_BYTES = 5_000_000
 """The report must stay below this size [bytes] (it is committed)."""
 
 SECTIONS = (
+    ("verdict", "Verdict: every target, pass or fail", "verdict"),
     ("recommended-sensor", "Recommended sensor", "recommended_sensor"),
     ("experiments", "Experiments and their status", "experiments_status"),
     ("comparison", "Comparison with reference sensors", "comparison"),

@@ -12,7 +12,8 @@ this module; the builders live in
 - `_sections_search`: `comparison`, `band_count`, `search_figures`;
 - `_sections_studies`: `classification`, `radiometry`, `spatial`, `overlap`,
   `inversion`;
-- `_sections_provenance`: `provenance`, `consistency`.
+- `_sections_provenance`: `provenance`, `consistency`;
+- `_sections_verdict`: `verdict` (the first screen: targets, pass/fail).
 """
 
 from ._experiments import (
@@ -50,3 +51,4 @@ from ._sections_studies import (
     radiometry as radiometry,
     spatial as spatial,
 )
+from ._sections_verdict import verdict as verdict
