@@ -431,3 +431,18 @@ def test_verdict_states_every_target_from_the_robustness_suite(tmp_path):
     text = build_report(tmp_path, tmp_path / "o3", strict=False).path.read_text()
     start = text.index('<section id="verdict">')
     assert "make robustness" in text[start : text.index("</section>", start)]
+
+
+def test_every_results_folder_is_shown_or_listed_as_not_part_of_it(built):
+    """A reader can tell a result the report leaves out from one that does
+    not exist: each folder of results/ either gives the page a number, table
+    or figure, or is named in the header's list of folders not shown."""
+    res, _ = built
+    text = res.path.read_text()
+    shown = {Path(rel).parts[0] for rel in res.sources}
+    note_at = text.index("Results not part of this report")
+    note = text[note_at : text.index("</p>", note_at)]
+    folders = [p.name for p in RESULTS.iterdir() if p.is_dir() and p.name != "report"]
+    for name in folders:
+        assert (name in shown) != (f"<code>{name}/</code>" in note), name
+    assert f"({len([n for n in folders if n not in shown])} folders;" in note

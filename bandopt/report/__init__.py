@@ -96,6 +96,34 @@ def consistency_messages(results_dir="results") -> list[str]:
     return check_consistency(Sources(results_dir, results_dir))
 
 
+def folders_not_in_report(src: Sources) -> list[str]:
+    """Folders of the results directory none of whose files the report read
+    (the report's own folder aside)."""
+    used = {Path(rel).parts[0] for rel in src.used}
+    return sorted(
+        p.name
+        for p in src.root.iterdir()
+        if p.is_dir() and p.name != "report" and p.name not in used
+    )
+
+
+def _not_in_report(src: Sources) -> str:
+    """The results folders this page does not show, each linked to its folder
+    (its README or its page in `results/README.md` says what it holds)."""
+    names = folders_not_in_report(src)
+    if not names:
+        return ""
+    links = ", ".join(
+        f'<a href="{html.escape(src.href(n))}"><code>{html.escape(n)}/</code></a>'
+        for n in names
+    )
+    return (
+        f'<p class="note">Results not part of this report ({len(names)} folders; '
+        "its README or its page in <code>results/README.md</code> says what it "
+        f"holds): {links}.</p>"
+    )
+
+
 def build_report(
     results_dir="results", out_dir=None, *, strict: bool = True
 ) -> ReportResult:
@@ -131,6 +159,7 @@ def build_report(
         f"from <code>{html.escape(str(results_dir))}/</code> only. Every number "
         "links to the results file it was read from (hover for the field).</p>"
         + _sections.missing_summary(ctx)
+        + _not_in_report(src)
     )
     text = page("bandopt: night-time multispectral sensor report", built, header=header)
     out_dir.mkdir(parents=True, exist_ok=True)
