@@ -9,7 +9,7 @@ from ._estimator_options import (
     read_prior_lamps,
     surface_of,
 )
-from ._options import add_list_option, bounded
+from ._options import add_list_option, add_place_options, bounded
 from ._output import add_locked_out
 
 
@@ -93,30 +93,13 @@ def register(subparsers):
         action="store_true",
         help="map an image without CRS/transform (outputs in pixel coordinates)",
     )
-    p.add_argument(
-        "--date",
-        default=None,
-        help="acquisition YYYY-MM-DDTHH:MM (UTC) or YYYY-MM-DD (with --overpass); "
+    add_place_options(
+        p,
+        required=False,
+        date_help="acquisition YYYY-MM-DDTHH:MM (UTC) or YYYY-MM-DD (with --overpass); "
         "with --lat/--lon the Moon is checked: the estimator knows moonless "
         "scenes, so a map with the Moon up is refused",
-    )
-    p.add_argument(
-        "--lat",
-        type=bounded(lo=-90.0, hi=90.0, why="deg"),
-        default=None,
-        help="latitude of the scene [deg, north +]",
-    )
-    p.add_argument(
-        "--lon",
-        type=bounded(lo=-180.0, hi=360.0, why="deg"),
-        default=None,
-        help="longitude of the scene [deg, east +]",
-    )
-    p.add_argument(
-        "--overpass",
-        default=None,
-        metavar="HH:MM",
-        help="overpass local mean solar time for --date without time",
+        overpass_help="overpass local mean solar time for --date without time",
     )
     p.add_argument("--json", action="store_true", help="print map.json")
     p.set_defaults(func=run, field_options=FIELD_OPTIONS)

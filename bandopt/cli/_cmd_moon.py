@@ -2,7 +2,7 @@
 
 import re
 
-from ._options import bounded
+from ._options import add_place_options, bounded
 
 
 FIELD_OPTIONS = {
@@ -34,28 +34,13 @@ def register(subparsers):
             "--plot moon.png"
         ),
     )
-    p.add_argument(
-        "--date",
+    add_place_options(
+        p,
         required=True,
-        help="YYYY-MM-DD (local date, Moon at --overpass) or YYYY-MM-DDTHH:MM (UTC)",
-    )
-    p.add_argument(
-        "--lat",
-        type=bounded(lo=-90.0, hi=90.0, why="deg"),
-        required=True,
-        help="latitude, -90 to 90 [deg, north +]",
-    )
-    p.add_argument(
-        "--lon",
-        type=bounded(lo=-180.0, hi=360.0, why="deg"),
-        required=True,
-        help="longitude, -180 to 180, or 0 to 360 east [deg, east +]",
-    )
-    p.add_argument(
-        "--overpass",
-        default=None,
-        metavar="HH:MM",
-        help="overpass local mean solar time for a date without time (default 01:30)",
+        date_help="YYYY-MM-DD (local date, Moon at --overpass) or "
+        "YYYY-MM-DDTHH:MM (UTC)",
+        overpass_help="overpass local mean solar time for a date without time "
+        "(default 01:30)",
     )
     p.add_argument(
         "--nights",

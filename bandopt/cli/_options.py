@@ -204,6 +204,30 @@ def bounded(
     return parse
 
 
+def add_place_options(
+    p: argparse.ArgumentParser, *, required: bool, date_help: str, overpass_help: str
+) -> None:
+    """`--date`, `--lat`, `--lon` and `--overpass`: where and when a scene is
+    seen (`bandopt moon` needs them; `bandopt map` takes them to check the
+    Moon)."""
+    p.add_argument("--date", required=required, default=None, help=date_help)
+    p.add_argument(
+        "--lat",
+        type=bounded(lo=-90.0, hi=90.0, why="deg"),
+        required=required,
+        default=None,
+        help="latitude, -90 to 90 [deg, north +]",
+    )
+    p.add_argument(
+        "--lon",
+        type=bounded(lo=-180.0, hi=360.0, why="deg"),
+        required=required,
+        default=None,
+        help="longitude, -180 to 180, or 0 to 360 east [deg, east +]",
+    )
+    p.add_argument("--overpass", default=None, metavar="HH:MM", help=overpass_help)
+
+
 def seed_type() -> Callable[[str], int]:
     """The argparse `type` of every `--seed`: an integer in 0..`SEED_MAX`."""
     return bounded(int, lo=0, hi=SEED_MAX, why="(a random seed)")
