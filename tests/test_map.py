@@ -407,37 +407,8 @@ def test_a_killed_run_keeps_its_finished_tiles(world, patch, tmp_path):
     child.wait()
     done = len(ledger.read_text().splitlines()) - 1
     assert 2 <= done < 16, done
-    assert (
-        main(
-            [
-                "map",
-                str(f),
-                "--bands",
-                "sdgsat-1",
-                *SMALL_CLI,
-                "--out",
-                str(out),
-                *args,
-                "--resume",
-            ]
-        )
-        == 0
-    )
-    assert (
-        main(
-            [
-                "map",
-                str(f),
-                "--bands",
-                "sdgsat-1",
-                *SMALL_CLI,
-                "--out",
-                str(full),
-                *args,
-            ]
-        )
-        == 0
-    )
+    assert _map(f, out, *args, "--resume") == 0
+    assert _map(f, full, *args) == 0
     summary = json.loads((out / "map.json").read_text())
     assert summary["tiles_skipped_on_resume"] >= done
     for stem in ("LER", "level1", "mask", "unexplained"):
