@@ -10,7 +10,7 @@ SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: run test test-slow lint bench atmospheres surfaces library lamp-models ler \
         g cct sweep compare classify classify-partitions radiometry spatial \
-        noise-aware estimate study estimate-moon estimate-library external-tm30 unseen-ceiling robustness \
+        noise-aware estimate study estimate-moon estimate-library external-tm30 unseen-ceiling robustness judge \
         before-after report check-report docs tutorial clean help
 
 help:  ## list the targets and what they do
@@ -92,6 +92,9 @@ unseen-ceiling: $(STAMP)  ## the level-1 family of unseen lamp types from bare l
 
 robustness: $(STAMP)  ## the shipped estimate on held-out lamps under measurement effects (background, noise, slit, shift, truncation, mixtures, a type left out of the prior), paired with the clean rows, our bands and SDGSAT-1 and Nightsat, 4 lamp partitions -> results/robustness (resumable: ARGS=--resume; ARGS=--quick for a short run)
 	nice $(BIN)/python -m experiments.robustness $(ARGS)
+
+judge: $(STAMP)  ## the search's candidate designs and the reference sensors judged by the shipped estimator on clean and perturbed held-out lamps, 4 lamp partitions; the choice by the one-SD rule -> results/judge (resumable: ARGS=--resume)
+	nice $(BIN)/python -m experiments.judge $(ARGS)
 
 classify: $(STAMP)  ## lamp-type classification (writes recommendation.json "classification")
 	$(BIN)/python -m experiments.classify

@@ -28,7 +28,10 @@ here, run by `make study NAME=...` (`make study` lists them).
   `make classify`) and fixed band sets classified over lamp partitions
   (`make classify-partitions`);
 - `external_tm30`: `bandopt evaluate` run as a user runs it on the measured
-  lamps of the IES TM-30-15 set the library lacks (`make external-tm30`).
+  lamps of the IES TM-30-15 set the library lacks (`make external-tm30`);
+- `judge`: the band search's candidate designs and the reference sensors
+  judged by the shipped estimator on clean and perturbed held-out lamps, a
+  configuration of the robustness study (`make judge`).
 """
 
 from ..names import CanonicalMapping

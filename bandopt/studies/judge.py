@@ -1,0 +1,401 @@
+"""The search's candidates judged by the shipped estimator, clean and
+perturbed: which band design `bandopt evaluate` itself serves best.
+
+The band search (`make run`) explores with a closed-form ridge surrogate and
+scores its designs with a plain inversion on moonless, unperturbed scenes;
+`bandopt evaluate` ships another estimator (`estimators.InversionConfig`
+defaults: blends, shifted and Planck spectra in the prior, calibrated
+intervals and probabilities, the Moon told) and users hand it spectra with
+background, noise, a coarser slit and mixed pixels. This study judges the
+search's candidates on that footing: a configuration of the robustness study
+(`bandopt.robustness.RobustnessStudy`: lamp-grouped partitions, the inversion
+fitted once per (partition, band set) on the training lamps, held-out
+measured lamps scored) whose band sets are the search's candidate designs
+and the reference sensors, and whose rows are the clean spectra and a set of
+realistic measurement effects (`JUDGE_PERTURBATIONS`).
+
+Each (band set, partition) gets one loss, the mean over the rows of
+
+    J = (e + c) / 2,  e = mean over LER, G, CCT of class-balanced MAE / SD,
+                      c = 1 - (level-1 right + level-2 right) / 2,
+
+with SD the class-balanced SD of each metric's truth the search normalises by
+(`compare.json` "truth_sd"), so estimation and classification count alike.
+The choice (`choose`) is the design with the fewest bands whose loss is
+within one SD (over partitions) of the best design's, paired by partition:
+the search's own band-count rule, applied to the shipped estimator.
+"""
+
+import json
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .. import robustness as rb
+from ..estimate import METRICS
+from ..provenance import write_manifest
+from ..results import RESULTS_DIR
+from ..sensor import BandSet
+from ..sensor.reference import load_band_set
+from ..strict_json import strict_dumps
+
+
+OUT = RESULTS_DIR / "judge"
+"""Where `make judge` writes."""
+
+SEARCH = RESULTS_DIR / "search"
+"""The band search whose candidates are judged (`make run`)."""
+
+JUDGE_PERTURBATIONS = (
+    rb.Perturbation("clean"),
+    rb.Perturbation("background-skyglow", 0.01),
+    rb.Perturbation("noise", 100.0),
+    rb.Perturbation("resolution", 5.0),
+    rb.Perturbation("shift", 1.0),
+    rb.Perturbation("mixture", 0.1),
+    rb.Perturbation("truncation", 780.0),
+)
+"""The judge's rows: the clean spectra and one realistic level of each
+measurement effect of the robustness study (sky glow at 1 % of the visible
+power, SNR 100 per nm, a 5 nm slit, a 1 nm shift, 10 % of another lamp type,
+a spectrum measured to 780 nm and extended by the product). The type left
+out of the prior is not a row: its pixels should be flagged, not typed, so
+their level-1 score says nothing about the bands."""
+
+REFERENCES = ("nightsat", "sdgsat-1")
+"""Reference sensors judged beside the candidates (same partitions, same
+estimator, same rows)."""
+
+
+def candidates(search: Path = SEARCH) -> list[tuple[str, BandSet]]:
+    """The search's candidate designs as band sets, in band-count order: the
+    stability medoid of every band count at alpha 0 (`compare.json`
+    "designs" ... "stability": the design the search recommends at that
+    count) and the recommended design (`recommended_bands.json`, labelled by
+    its set name in `compare.json` "pareto"). Each carries the recommended
+    set's pan band, slit shape and data range."""
+    search = Path(search)
+    compare = json.loads((search / "compare.json").read_text())
+    rec_path = search / "recommended_bands.json"
+    rec = BandSet.from_json(rec_path)
+    rec_doc = json.loads(rec_path.read_text())
+    pan = rec_doc["bands"][-1]
+    if pan["name"].upper() != "PAN":
+        raise ValueError(
+            f"{rec_path}: bands[-1]: expected the pan band, got {pan['name']!r}"
+        )
+    lo, hi = rec_doc["range_nm"]
+    shape = float(pan["shape_k"])
+    rec_key = compare["pareto"]["recommended"]
+    out: list[tuple[str, BandSet]] = []
+    for key, design in compare["designs"].items():
+        stab = design.get("stability")
+        if stab is None:
+            continue
+        c = [*map(float, stab["centre_nm"]), float(pan["centre_nm"])]
+        f = [*map(float, stab["fwhm_nm"]), float(pan["fwhm_nm"])]
+        names = [f"B{i + 1}" for i in range(len(c) - 1)] + ["PAN"]
+        out.append(
+            (
+                key,
+                BandSet.from_physical(
+                    c, f, shape, names=names, name=key, lower_nm=lo, upper_nm=hi,
+                    min_fwhm_nm=min(f) - 1e-6,
+                ),
+            )
+        )  # fmt: skip
+    if rec_key not in {k for k, _ in out}:
+        out.append((rec_key, rec))
+    return sorted(out, key=lambda kb: (len(kb[1].names), kb[0]))
+
+
+def study(
+    band_sets: Sequence[tuple[str, str]],
+    *,
+    partitions: int = 4,
+    **kwargs,
+) -> rb.RobustnessStudy:
+    """The robustness study configured as the judge: `band_sets` ((label,
+    band-set file or reference name) pairs), `JUDGE_PERTURBATIONS` (unless
+    `perturbations=` is given) and `partitions` lamp partitions; other
+    `RobustnessStudy` fields as keywords (small test runs)."""
+    kwargs.setdefault("perturbations", JUDGE_PERTURBATIONS)
+    return rb.RobustnessStudy(
+        band_sets=tuple(band_sets), partitions=partitions, **kwargs
+    )
+
+
+def losses(summary: dict, truth_sd: dict, band_sets: Sequence[str]) -> dict:
+    """Per band set: the loss J of each partition (module docstring), and
+    its estimation part e and classification part c, each the mean over the
+    summary's rows of that band set. Rows: the perturbations of
+    `summary["perturbations"]`; a band set missing a row or a partition
+    raises."""
+    rows = {(r["band_set"], r["perturbation"]): r for r in summary["rows"]}
+    labels = list(summary["perturbations"])
+    out = {}
+    for b in band_sets:
+        es, cs = [], []
+        for lab in labels:
+            if (b, lab) not in rows:
+                raise ValueError(f"summary: no row for band set {b!r}, {lab!r}")
+            r = rows[(b, lab)]
+            e = np.mean(
+                [
+                    np.asarray(r[f"{m}_per_partition"], float) / truth_sd[m]
+                    for m in METRICS
+                ],
+                axis=0,
+            )
+            c = 1.0 - 0.5 * (
+                np.asarray(r["level1_correct_per_partition"], float)
+                + np.asarray(r["level2_correct_per_partition"], float)
+            )
+            es.append(e)
+            cs.append(c)
+        e, c = np.mean(es, axis=0), np.mean(cs, axis=0)
+        if not np.all(np.isfinite(e) & np.isfinite(c)):
+            raise ValueError(f"summary: band set {b!r} has undefined errors")
+        out[b] = {
+            "J_per_partition": (0.5 * (e + c)).tolist(),
+            "estimation_per_partition": e.tolist(),
+            "classification_per_partition": c.tolist(),
+        }
+        for part in ("J", "estimation", "classification"):
+            v = np.asarray(out[b][f"{part}_per_partition"])
+            out[b][part] = float(v.mean())
+            out[b][f"{part}_sd"] = float(v.std(ddof=1)) if v.size > 1 else None
+    return out
+
+
+def choose(loss: dict, n_bands: dict) -> dict:
+    """The judged choice among `loss`'s band sets (`losses`; `n_bands`: each
+    set's total band count): the best is the lowest mean J; each set's paired
+    difference to the best (J - J_best per partition, mean and SD); chosen:
+    the fewest bands whose mean difference is at most its SD (ties: lower
+    J). With one partition the SD is undefined and the best is chosen."""
+    best = min(loss, key=lambda b: loss[b]["J"])
+    jb = np.asarray(loss[best]["J_per_partition"])
+    diff = {}
+    for b, v in loss.items():
+        d = np.asarray(v["J_per_partition"]) - jb
+        sd = float(d.std(ddof=1)) if d.size > 1 else None
+        diff[b] = {"mean": float(d.mean()), "sd": sd}
+    within = [
+        b for b in loss
+        if b == best or (diff[b]["sd"] is not None and diff[b]["mean"] <= diff[b]["sd"])
+    ]  # fmt: skip
+    chosen = min(within, key=lambda b: (n_bands[b], loss[b]["J"]))
+    return {
+        "rule": "fewest bands whose loss J is within one SD (over partitions, "
+        "paired) of the lowest mean J",
+        "best": best,
+        "chosen": chosen,
+        "within_one_sd": sorted(within, key=lambda b: (n_bands[b], b)),
+        "difference_to_best": diff,
+    }
+
+
+def paired(loss: dict, ours: str, others: Sequence[str]) -> dict:
+    """Paired differences ours - other in J, e and c, per partition: mean and
+    SD (negative: ours is better)."""
+    out = {}
+    for o in others:
+        out[o] = {}
+        for part in ("J", "estimation", "classification"):
+            d = np.asarray(loss[ours][f"{part}_per_partition"]) - np.asarray(
+                loss[o][f"{part}_per_partition"]
+            )
+            out[o][part] = {
+                "mean": float(d.mean()),
+                "sd": float(d.std(ddof=1)) if d.size > 1 else None,
+            }
+    return out
+
+
+def verdict(
+    summary: dict,
+    truth_sd: dict,
+    band_sets: Sequence[str],
+    n_bands: dict,
+    searched: str,
+    references: Sequence[str],
+) -> dict:
+    """The judge's result (`judge.json`): losses per band set, the choice
+    among the candidates (`band_sets` minus `references`), the search's own
+    recommendation `searched` against it, and the chosen design against each
+    reference sensor, paired by partition."""
+    loss = losses(summary, truth_sd, band_sets)
+    cands = [b for b in band_sets if b not in references]
+    choice = choose({b: loss[b] for b in cands}, n_bands)
+    clean = {
+        r["band_set"]: {
+            k: r.get(k)
+            for k in (
+                "level1_correct",
+                "level2_correct",
+                *METRICS,
+                "ECE",
+                "unexplained",
+            )
+        }
+        for r in summary["rows"]
+        if r["kind"] == "clean"
+    }
+    return {
+        "loss": "J = (e + c) / 2 per partition, mean over rows; e = mean over "
+        "LER, G, CCT of class-balanced MAE / truth SD; c = 1 - (level-1 right "
+        "+ level-2 right) / 2",
+        "truth_sd": truth_sd,
+        "rows": list(summary["perturbations"]),
+        "n_bands": n_bands,
+        "losses": loss,
+        "choice": choice,
+        "searched": searched,
+        "agrees_with_search": choice["chosen"] == searched,
+        "searched_minus_chosen": paired(loss, searched, [choice["chosen"]])[
+            choice["chosen"]
+        ],
+        "chosen_minus_reference": paired(loss, choice["chosen"], references),
+        "clean": clean,
+    }
+
+
+def readme_text(result: dict) -> str:
+    """`README.md` of the judge: the rule, the table of losses and the
+    verdict."""
+    ch = result["choice"]
+    lines = [
+        "# The search's candidates judged by the shipped estimator",
+        "",
+        "Written by `make judge` (`bandopt.studies.judge`); numbers from "
+        "`judge.json`. Each band set: the shipped inversion fitted per lamp "
+        "partition on the training lamps, held-out measured lamps scored on "
+        "the rows " + ", ".join(result["rows"]) + ".",
+        "",
+        f"Loss: {result['loss']}. Rule: {ch['rule']}.",
+        "",
+        "| band set | bands | J | estimation e | classification c | "
+        "clean level-1 | clean LER [lm/W] | clean G | clean CCT [K] |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for b, v in result["losses"].items():
+        c = result["clean"].get(b, {})
+
+        def f(x, d):
+            return "-" if x is None else f"{x:.{d}f}"
+
+        sd = "" if v["J_sd"] is None else f" ± {v['J_sd']:.3f}"
+        mark = " (chosen)" if b == ch["chosen"] else ""
+        mark += " (search)" if b == result["searched"] else ""
+        lines.append(
+            f"| {b}{mark} | {result['n_bands'][b]} | {v['J']:.3f}{sd} | "
+            f"{v['estimation']:.3f} | {v['classification']:.3f} | "
+            f"{f(c.get('level1_correct'), 2)} | {f(c.get('LER'), 1)} | "
+            f"{f(c.get('G'), 3)} | {f(c.get('CCT'), 0)} |"
+        )
+    d = result["searched_minus_chosen"]["J"]
+    lines += [
+        "",
+        f"**Verdict.** Chosen: {ch['chosen']} (lowest J: {ch['best']}). "
+        + (
+            "The search's recommendation is the judged choice."
+            if result["agrees_with_search"]
+            else f"The search recommended {result['searched']}; its J is "
+            f"{d['mean']:+.3f} ± {d['sd'] or 0:.3f} against the choice, paired."
+        ),
+    ]
+    for o, v in result["chosen_minus_reference"].items():
+        j = v["J"]
+        lines.append(
+            f"- chosen minus {o}: J {j['mean']:+.3f} ± {j['sd'] or 0:.3f} "
+            "(negative: ours better)"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def figure(result: dict, path: Path) -> None:
+    """J per band set (per-partition points, mean ± SD), its estimation and
+    classification parts."""
+    import matplotlib  # plotting only: start-up time
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # after matplotlib.use("Agg")
+
+    sets = list(result["losses"])
+    fig, axes = plt.subplots(1, 3, figsize=(14, 1.5 + 0.45 * len(sets)), sharey=True)
+    y = np.arange(len(sets))[::-1]
+    for ax, part, title in zip(
+        axes,
+        ("J", "estimation", "classification"),
+        ("loss J", "estimation e (MAE / truth SD)", "classification c (1 - right)"),
+        strict=True,
+    ):
+        for yi, b in zip(y, sets, strict=True):
+            v = result["losses"][b]
+            pts = v[f"{part}_per_partition"]
+            colour = "C3" if b == result["choice"]["chosen"] else "C0"
+            ax.plot(pts, [yi] * len(pts), "o", ms=3, color="0.6")
+            ax.errorbar(
+                v[part], yi, xerr=v[f"{part}_sd"] or 0, fmt="s", color=colour, capsize=3
+            )
+        ax.set_title(title, fontsize=9)
+        ax.grid(axis="x", alpha=0.3)
+    axes[0].set_yticks(y, sets, fontsize=8)
+    fig.suptitle("search candidates judged by the shipped inversion (red: chosen)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def run(
+    out: Path = OUT,
+    *,
+    search: Path = SEARCH,
+    partitions: int = 4,
+    only_partitions: Sequence[int] | None = None,
+    resume: bool = False,
+    log: Callable[[str], None] = lambda msg: None,
+    **study_kwargs,
+) -> dict | None:
+    """Judge the candidates of the search in `search`: band-set files in
+    `out/candidates/`, records in `out/records.jsonl.gz` (resumable per
+    (partition, band set)), then `summary.json` (the robustness rows),
+    `judge.json`, `judge.png`, `README.md` and the manifest. With
+    `only_partitions`, only those units are computed and nothing is
+    summarised (returns None); a later `resume=True` run joins them."""
+    out = Path(out)
+    cands = candidates(search)
+    cand_dir = out / "candidates"
+    cand_dir.mkdir(parents=True, exist_ok=True)
+    band_sets = []
+    for key, bands in cands:
+        path = cand_dir / (
+            key.replace(" ", "_").replace("+", "_").replace("=", "") + ".json"
+        )
+        bands.to_json(path)
+        band_sets.append((key, str(path)))
+    band_sets += [(r, r) for r in REFERENCES]
+    st = study(band_sets, partitions=partitions, **study_kwargs)
+    t0 = time.time()
+    records = rb.run_study(
+        st, out / "records.jsonl.gz", resume=resume, partitions=only_partitions,
+        log=lambda m: log(f"{m} ({time.time() - t0:.0f} s)"),
+    )  # fmt: skip
+    if only_partitions is not None:
+        return None
+    summary = rb.summarise(records, st)
+    compare = json.loads((Path(search) / "compare.json").read_text())
+    n_bands = {label: len(load_band_set(src).names) for label, src in band_sets}
+    result = verdict(
+        summary, compare["truth_sd"], [b for b, _ in band_sets], n_bands,
+        compare["pareto"]["recommended"], REFERENCES,
+    )  # fmt: skip
+    (out / "summary.json").write_text(strict_dumps(summary, indent=2) + "\n")
+    (out / "judge.json").write_text(strict_dumps(result, indent=2) + "\n")
+    figure(result, out / "judge.png")
+    (out / "README.md").write_text(readme_text(result))
+    write_manifest(out, seed=st.seed, config={**st.to_dict(), "search": str(search)})
+    return result

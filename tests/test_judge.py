@@ -1,0 +1,146 @@
+"""bandopt.studies.judge: the search's candidates from its committed files,
+the loss and the one-SD choice on hand-made summaries, and the whole study
+on a tiny configuration (two lamp partitions, two lamps per class)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from bandopt.estimators import InversionConfig
+from bandopt.robustness import Perturbation
+from bandopt.sensor.reference import load_band_set
+from bandopt.studies import judge
+
+
+def test_candidates_are_the_searchs_designs_with_its_pan_band():
+    cands = judge.candidates()
+    compare = json.loads((judge.SEARCH / "compare.json").read_text())
+    rec = load_band_set(judge.SEARCH / "recommended_bands.json")
+    keys = [k for k, _ in cands]
+    assert compare["pareto"]["recommended"] in keys
+    with_design = [k for k, d in compare["designs"].items() if "stability" in d]
+    assert set(with_design) <= set(keys)
+    counts = [len(b.names) for _, b in cands]
+    assert counts == sorted(counts)
+    for key, bands in cands:
+        assert bands.names[-1] == "PAN"
+        assert float(bands.centre_nm[-1]) == pytest.approx(float(rec.centre_nm[-1]))
+        if key in with_design:
+            stab = compare["designs"][key]["stability"]
+            np.testing.assert_allclose(
+                bands.centre_nm[:-1], stab["centre_nm"], rtol=1e-9
+            )
+            np.testing.assert_allclose(bands.fwhm_nm[:-1], stab["fwhm_nm"], rtol=1e-9)
+    rec_bands = dict(cands)[compare["pareto"]["recommended"]]
+    np.testing.assert_allclose(rec_bands.centre_nm, rec.centre_nm)
+
+
+def _summary(values: dict) -> dict:
+    """A robustness summary with one row per band set and label: `values`
+    maps (band set, label) to (level1, level2, LER, G, CCT) per partition."""
+    rows = []
+    labels = []
+    for (b, lab), per in values.items():
+        labels.append(lab) if lab not in labels else None
+        per = np.asarray(per, float)
+        row = {"band_set": b, "perturbation": lab, "kind": lab}
+        for j, col in enumerate(
+            ("level1_correct", "level2_correct", "LER", "G", "CCT")
+        ):
+            row[f"{col}_per_partition"] = per[:, j].tolist()
+            row[col] = float(per[:, j].mean())
+        rows.append(row)
+    return {"rows": rows, "perturbations": labels}
+
+
+SD = {"LER": 10.0, "G": 1.0, "CCT": 100.0}
+
+
+def test_loss_is_the_mean_of_normalised_error_and_misclassification():
+    s = _summary({("a", "clean"): [(0.8, 0.6, 10.0, 0.5, 300.0)] * 2,
+                  ("a", "noise"): [(0.6, 0.4, 20.0, 1.0, 0.0)] * 2})  # fmt: skip
+    loss = judge.losses(s, SD, ["a"])["a"]
+    e = np.mean([(1 + 0.5 + 3) / 3, (2 + 1 + 0) / 3])
+    c = np.mean([1 - 0.7, 1 - 0.5])
+    assert loss["estimation"] == pytest.approx(e)
+    assert loss["classification"] == pytest.approx(c)
+    assert loss["J"] == pytest.approx((e + c) / 2)
+    assert loss["J_sd"] == pytest.approx(0.0)
+    with pytest.raises(ValueError, match="no row for band set 'b'"):
+        judge.losses(s, SD, ["a", "b"])
+
+
+def test_choice_takes_the_fewest_bands_within_one_sd_of_the_best():
+    def loss(per):
+        return {"J": float(np.mean(per)), "J_per_partition": list(per)}
+
+    n = {"small": 3, "big": 6, "mid": 4}
+    # big is best; small is worse by 0.01 +- 0.02 (within), mid worse by 0.1 +- 0.01
+    losses = {
+        "big": loss([0.20, 0.22, 0.21, 0.23]),
+        "small": loss([0.23, 0.21, 0.24, 0.22]),
+        "mid": loss([0.30, 0.32, 0.31, 0.35]),
+    }
+    ch = judge.choose(losses, n)
+    assert ch["best"] == "big"
+    assert ch["chosen"] == "small"
+    assert "mid" not in ch["within_one_sd"]
+    # a consistently worse small design (paired: +0.05 in every partition)
+    losses["small"] = loss([0.25, 0.27, 0.26, 0.28])
+    assert judge.choose(losses, n)["chosen"] == "big"
+
+
+LIGHT = InversionConfig(
+    mixtures=0,
+    peak_shifts_nm=(),
+    planck=False,
+    calibration="lamps",
+    floor_grid=(1e-3,),
+    interval_offsets=(0.0,),
+)
+"""The shipped estimator without its slow extras: this checks the study's
+plumbing, not the estimator."""
+
+
+KEEP = ("n2+pan a=0", "n3+pan a=0.5")
+"""The two candidates the tiny study judges."""
+
+
+def test_the_tiny_study_writes_a_verdict_that_agrees_with_its_rows(
+    tmp_path, monkeypatch
+):
+    every = judge.candidates
+    monkeypatch.setattr(judge, "REFERENCES", ("nightsat",))
+    monkeypatch.setattr(
+        judge, "candidates",
+        lambda search: [c for c in every(search) if c[0] in KEEP],
+    )  # fmt: skip
+    result = judge.run(
+        tmp_path, partitions=2, preset="tiny", atmospheres="none",
+        lamps_per_class=2, config=LIGHT,
+        perturbations=(Perturbation("clean"), Perturbation("mixture", 0.1)),
+    )  # fmt: skip
+    assert set(result["losses"]) == {"n2+pan a=0", "n3+pan a=0.5", "nightsat"}
+    assert result["choice"]["chosen"] in ("n2+pan a=0", "n3+pan a=0.5")
+    assert result["n_bands"] == {"n2+pan a=0": 3, "n3+pan a=0.5": 4, "nightsat": 6}
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    again = judge.losses(summary, result["truth_sd"], list(result["losses"]))
+    for b, v in again.items():
+        assert v["J"] == pytest.approx(result["losses"][b]["J"])
+        assert len(v["J_per_partition"]) == 2
+    d = result["chosen_minus_reference"]["nightsat"]["J"]["mean"]
+    assert d == pytest.approx(
+        result["losses"][result["choice"]["chosen"]]["J"]
+        - result["losses"]["nightsat"]["J"]
+    )
+    for name in (
+        "judge.json",
+        "judge.png",
+        "README.md",
+        "manifest.json",
+        "records.jsonl.gz",
+    ):
+        assert (tmp_path / name).is_file()
+    assert result["choice"]["chosen"] in (tmp_path / "README.md").read_text()
+    assert len(list((tmp_path / "candidates").glob("*.json"))) == 2
