@@ -144,3 +144,39 @@ def test_the_tiny_study_writes_a_verdict_that_agrees_with_its_rows(
         assert (tmp_path / name).is_file()
     assert result["choice"]["chosen"] in (tmp_path / "README.md").read_text()
     assert len(list((tmp_path / "candidates").glob("*.json"))) == 2
+
+
+def test_the_report_shows_the_judged_choice_and_whether_the_search_agrees(tmp_path):
+    """The verdict section tables every judged band set with its loss and
+    marks the choice; it says when the search's pick is not the choice, and
+    without the judge's results it says what to run."""
+    from bandopt.report import build_report
+
+    per = {
+        "n2": [(0.90, 0.80, 10.0, 0.2, 200.0), (0.88, 0.79, 11.0, 0.2, 210.0)],
+        "n3": [(0.80, 0.70, 14.0, 0.3, 300.0), (0.82, 0.71, 13.0, 0.3, 320.0)],
+        "ref": [(0.91, 0.81, 9.0, 0.3, 250.0), (0.90, 0.80, 9.5, 0.3, 260.0)],
+    }
+    s = _summary({(b, "clean"): v for b, v in per.items()})
+    for r in s["rows"]:
+        r.update(ECE=0.05, unexplained=0.0)
+    n = {"n2": 3, "n3": 4, "ref": 6}
+    out = tmp_path / "judge"
+    out.mkdir()
+    for searched, says in (
+        ("n3", "not the search's pick"),
+        ("n2", "is the judged choice"),
+    ):
+        res = judge.verdict(s, SD, list(per), n, searched, ("ref",))
+        assert res["choice"]["chosen"] == "n2"
+        (out / "judge.json").write_text(json.dumps(res))
+        text = build_report(
+            tmp_path, tmp_path / f"o{searched}", strict=False
+        ).path.read_text()
+        start = text.index('<section id="verdict">')
+        section = text[start : text.index("</section>", start)]
+        assert says in section
+        assert "n2 <strong>(chosen" in section and "ref" in section
+    (out / "judge.json").unlink()
+    text = build_report(tmp_path, tmp_path / "o", strict=False).path.read_text()
+    assert "make judge" in text

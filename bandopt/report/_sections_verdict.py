@@ -5,7 +5,9 @@ Estimation, classification and calibration are read from the robustness
 suite (`results/robustness/summary.json`): `bandopt evaluate`'s estimator
 fitted per lamp partition on training lamps and scored on held-out measured
 lamps, the same estimator for our bands and the reference sensors. SNR and
-saturation come from the radiometry (`results/radiometry/`). A target no
+saturation come from the radiometry (`results/radiometry/`). Which design
+the search's candidates make, judged by that same estimator on clean and
+perturbed lamps, comes from `results/judge/`. A target no
 experiment judges yet is listed as not judged, never left out.
 """
 
@@ -15,6 +17,7 @@ from ._source import Sources, missing_box
 
 
 ROBUSTNESS = "robustness/summary.json"
+JUDGE = "judge/judge.json"
 LIMITS = "radiometry/limits.csv"
 RADIOMETRY = "radiometry/summary.json"
 
@@ -188,6 +191,80 @@ def _radiometry_table(src: Sources) -> str:
     )
 
 
+def _judge_table(src: Sources) -> str:
+    """The search's candidates judged by the shipped estimator: loss J and its
+    parts per band set, the chosen design, and whether the search agrees."""
+    if not src.exists(JUDGE):
+        return missing_box(
+            "the search's candidates judged by the shipped estimator "
+            "(<code>results/judge/judge.json</code>)",
+            "run <code>make judge</code>",
+        )
+    res = src.load(JUDGE)
+    chosen, searched = res["choice"]["chosen"], res["searched"]
+    rows = []
+    for b in res["losses"]:
+        base = f"/losses/{_ptr(b)}"
+        mark = []
+        if b == chosen:
+            mark.append("chosen")
+        if b == searched:
+            mark.append("the search's pick")
+        clean = src.num(JUDGE, f"/clean/{_ptr(b)}/level1_correct", digits=2)
+        rows.append(
+            [
+                esc(b) + (f" <strong>({esc(', '.join(mark))})</strong>" * bool(mark)),
+                src.num(JUDGE, f"/n_bands/{_ptr(b)}"),
+                src.num(JUDGE, base + "/J")
+                + (" ± " + src.num(JUDGE, base + "/J_sd", digits=2)
+                   if res["losses"][b]["J_sd"] is not None else ""),
+                src.num(JUDGE, base + "/estimation"),
+                src.num(JUDGE, base + "/classification"),
+                clean,
+            ]
+        )  # fmt: skip
+    d = res["searched_minus_chosen"]["J"]
+    agree = (
+        "The search's pick is the judged choice."
+        if res["agrees_with_search"]
+        else "<strong>The judged choice is not the search's pick</strong>: the "
+        "search's pick has J "
+        + src.num(JUDGE, "/searched_minus_chosen/J/mean", digits=2)
+        + (" ± " + src.num(JUDGE, "/searched_minus_chosen/J/sd", digits=2)
+           if d["sd"] is not None else "")
+        + " against the choice (paired by partition). The downstream results "
+        "still use the search's pick until they are recomputed on the choice."
+    )  # fmt: skip
+    return (
+        "<p>Which design: the search's candidates (each band count's stability "
+        "design and the recommended one) and the reference sensors, judged by "
+        "the same estimator on clean and perturbed held-out lamps ("
+        + ", ".join(esc(r) for r in res["rows"])
+        + "). Loss: "
+        + esc(res["loss"])
+        + "; rule: "
+        + esc(res["choice"]["rule"])
+        + ".</p>"
+        + table(
+            [
+                "band set",
+                "bands",
+                "loss J",
+                "estimation e",
+                "classification c",
+                "level-1 right, clean",
+            ],
+            rows,
+        )
+        + f"<p>{agree}</p>"
+    )
+
+
+def _ptr(key: str) -> str:
+    """`key` as one JSON-pointer step (RFC 6901 escapes)."""
+    return key.replace("~", "~0").replace("/", "~1")
+
+
 def _instrument(src: Sources) -> str:
     if not src.exists(RADIOMETRY):
         return ""
@@ -217,6 +294,7 @@ def verdict(ctx: Ctx) -> str:
         + src.link("robustness/README.md", "results/robustness")
         + "); the same estimator for the reference sensors.</p>"
         + est
+        + _judge_table(src)
         + _radiometry_table(src)
         + _instrument(src)
         + "<p>Not judged yet: the ground sample distance (a detector at a fixed "
