@@ -14,8 +14,11 @@ from bandopt.radiometry import (
     LinearQuantiser,
     SqrtQuantiser,
     TwoGainQuantiser,
+    apply_change,
     background_band_radiance,
     electrons_for_snr,
+    f_number_for,
+    instrument_changes,
     make_quantiser,
     night_sky_radiance,
     radiance_groups,
@@ -200,6 +203,39 @@ def test_sensor_limited_rule_reaches_target(scen, bands, groups):
         if sensor:
             hit = np.array(lim.limited_by) == "sensor_snr"
             np.testing.assert_allclose(lim.snr_at_limit[hit], k, rtol=1e-9)
+
+
+def test_each_instrument_change_reaches_the_snr_target_and_no_less_does(
+    scen, bands, groups
+):
+    """`instrument_changes`: each single-knob change, applied to the sensor,
+    brings every band's exposure factor to <= 1 at its detection limit, and
+    the same change 1 % smaller leaves the limiting band short; an f-number
+    beyond f/0.5 is refused, not offered."""
+    params = SensorParams()
+    rule = LimitRule(snr_target=40.0)
+    lim = _lim(scen, bands, groups, params, rule)
+    ch = instrument_changes(params, lim.exposure_factor, lim.band_names)
+    assert not ch["met"] and ch["exposure_factor"] == pytest.approx(
+        lim.exposure_factor.max()
+    )
+    j = lim.band_names.index(ch["limiting_band"])
+    assert ch["gsd_m"] == pytest.approx(
+        float(params.integration_time_s) * 6.9e3, rel=0.02
+    )  # 600 km orbit, ~6.9 km/s
+    for knob, c in ch["changes"].items():
+        if c["needed"] is None:
+            continue
+        p2, extra = apply_change(params, knob, c["needed"])
+        f2 = _lim(scen, bands, groups, p2, rule).exposure_factor / extra
+        assert np.all(f2 <= 1 + 1e-6), knob
+        if knob in ("pixel_pitch_m", "f_number"):  # continuous: 1 % less falls short
+            less = c["needed"] * (0.99 if knob == "pixel_pitch_m" else 1.01)
+            p3, extra = apply_change(params, knob, less)
+            assert _lim(scen, bands, groups, p3, rule).exposure_factor[j] / extra > 1
+    assert f_number_for(params, 1e4) is None
+    assert f_number_for(params, 1.0) == pytest.approx(float(params.f_number))
+    assert instrument_changes(params, [0.5, 0.9], ["a", "b"])["changes"] == {}
 
 
 def test_limits_move_the_right_way(scen, bands, groups):

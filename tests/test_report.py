@@ -125,7 +125,7 @@ def test_table51_carries_every_band_and_sensor_property(built):
     res, page = built
     rec = json.loads((RESULTS / "recommendation.json").read_text())
     text = res.path.read_text()
-    body = text[text.index('class="table51"'):]
+    body = text[text.index('class="table51"') :]
     body = body[: body.index("</table>")]
     for band in rec["spectral"]["bands"]:
         assert f"<td>{band['name']}</td>" in body
@@ -243,8 +243,16 @@ def test_cli_report_exit_codes(small, tmp_path, capsys):
 
 def test_empty_results_names_every_experiment_missing(tmp_path, capsys):
     (tmp_path / "res").mkdir()
-    rc = main(["report", "--results", str(tmp_path / "res"), "--out",
-               str(tmp_path / "out"), "--json"])
+    rc = main(
+        [
+            "report",
+            "--results",
+            str(tmp_path / "res"),
+            "--out",
+            str(tmp_path / "out"),
+            "--json",
+        ]
+    )
     assert rc == 0
     out = json.loads(capsys.readouterr().out)
     from bandopt.report import EXPERIMENTS
@@ -259,16 +267,20 @@ def test_empty_results_names_every_experiment_missing(tmp_path, capsys):
 def test_inversion_coverage_is_read_from_results_estimate(tmp_path):
     res_dir = tmp_path / "res"
     (res_dir / "estimate").mkdir(parents=True)
-    cov = {"nominal_coverage": 0.9,
-           "held_out_lamps": {"ours/unknown": {"LER_coverage": 0.85,
-                                                "G_coverage": None}}}
+    cov = {
+        "nominal_coverage": 0.9,
+        "held_out_lamps": {"ours/unknown": {"LER_coverage": 0.85, "G_coverage": None}},
+    }
     (res_dir / "estimate" / "coverage.json").write_text(json.dumps(cov))
     res = build_report(res_dir, tmp_path / "out")
     assert "estimate" not in res.missing
     page = _Page()
     page.feed(res.path.read_text())
-    got = {a["data-ptr"]: a["data-value"] for a in page.nums
-           if a["data-src"] == "estimate/coverage.json"}
+    got = {
+        a["data-ptr"]: a["data-value"]
+        for a in page.nums
+        if a["data-src"] == "estimate/coverage.json"
+    }
     assert got == {
         "/nominal_coverage": "0.9",
         "/held_out_lamps/ours~1unknown/LER_coverage": "0.85",
@@ -281,8 +293,11 @@ _CAL = (
     ("centre_tolerance_calibrated_nm", "centre_shift_interval_calibrated_nm"),
     ("fwhm_tolerance_calibrated_factor", "fwhm_factor_interval_calibrated"),
 )
-_CAL_TOP = ("leakage_interval_calibrated", "meets_leakage_1pct_calibrated",
-            "aoi_interval_calibrated_deg")
+_CAL_TOP = (
+    "leakage_interval_calibrated",
+    "meets_leakage_1pct_calibrated",
+    "aoi_interval_calibrated_deg",
+)
 
 
 def _tolerance_files(small, calibrated: bool):
@@ -303,9 +318,11 @@ def _tolerance_files(small, calibrated: bool):
     for k in _CAL_TOP:
         tol.pop(k, None)
     if calibrated:
-        tol.update(leakage_interval_calibrated=[0.0, 0.0375],
-                   meets_leakage_1pct_calibrated=True,
-                   aoi_interval_calibrated_deg=None)  # null: nominal failed
+        tol.update(
+            leakage_interval_calibrated=[0.0, 0.0375],
+            meets_leakage_1pct_calibrated=True,
+            aoi_interval_calibrated_deg=None,
+        )  # null: nominal failed
     rec_path.write_text(json.dumps(rec))
     tol_path.write_text(json.dumps(tol))
     return rec
@@ -331,10 +348,24 @@ def test_calibrated_tolerances_are_shown_and_checked(small, tmp_path):
     page = _Page()
     page.feed(res.path.read_text())
     got = {(a["data-src"], a["data-ptr"]): a["data-value"] for a in page.nums}
-    assert got[("recommendation.json",
-                "/spectral/bands/0/centre_tolerance_calibrated_nm/0")] == "-3.25"
-    assert got[("recommendation.json",
-                "/spectral/bands/0/fwhm_tolerance_calibrated_factor/1")] == "1.125"
+    assert (
+        got[
+            (
+                "recommendation.json",
+                "/spectral/bands/0/centre_tolerance_calibrated_nm/0",
+            )
+        ]
+        == "-3.25"
+    )
+    assert (
+        got[
+            (
+                "recommendation.json",
+                "/spectral/bands/0/fwhm_tolerance_calibrated_factor/1",
+            )
+        ]
+        == "1.125"
+    )
     assert got[("search/tolerance.json", "/leakage_interval_calibrated/1")] == "0.0375"
     text = res.path.read_text()
     assert "no calibrated scan" not in text
@@ -363,8 +394,11 @@ def test_search_solvers_and_converged_designs_are_shown(small, tmp_path):
     (small / "recommendation.json").write_text(json.dumps(rec))
     comp = json.loads((small / "search" / "compare.json").read_text())
     for d in comp["designs"].values():
-        d["convergence"] = {"fits": {"successful": 90}, "designs_converged": 9,
-                            "designs": 12}
+        d["convergence"] = {
+            "fits": {"successful": 90},
+            "designs_converged": 9,
+            "designs": 12,
+        }
     (small / "search" / "compare.json").write_text(json.dumps(comp))
     res = build_report(small, tmp_path / "out", strict=False)
     text = res.path.read_text()
@@ -373,8 +407,12 @@ def test_search_solvers_and_converged_designs_are_shown(small, tmp_path):
     page.feed(text)
     got = {(a["data-src"], a["data-ptr"]): a["data-value"] for a in page.nums}
     assert got[("recommendation.json", "/spectral/search/designs_converged")] == "11"
-    assert got[("search/compare.json",
-                "/designs/n5+pan a=0/convergence/designs_converged")] == "9"
+    assert (
+        got[
+            ("search/compare.json", "/designs/n5+pan a=0/convergence/designs_converged")
+        ]
+        == "9"
+    )
 
 
 def _verdict_rows(path: Path) -> dict[str, list[str]]:
@@ -387,8 +425,7 @@ def _verdict_rows(path: Path) -> dict[str, list[str]]:
     rows = {}
     for tr in re.findall(r"<tr>(.*?)</tr>", section):
         cells = [
-            re.sub(r"<[^>]+>", "", c).strip()
-            for c in re.findall(r"<td>(.*?)</td>", tr)
+            re.sub(r"<[^>]+>", "", c).strip() for c in re.findall(r"<td>(.*?)</td>", tr)
         ]
         if cells:
             rows[cells[0]] = cells
@@ -400,13 +437,18 @@ def test_verdict_states_every_target_from_the_robustness_suite(tmp_path):
     estimator's clean row (`results/robustness`) and each band's SNR verdict
     from the radiometry; moving a value across its target flips the verdict,
     and without the suite the section says what to run."""
-    for rel in ("robustness/summary.json", "robustness/README.md",
-                "radiometry/limits.csv", "radiometry/summary.json"):
+    for rel in (
+        "robustness/summary.json",
+        "robustness/README.md",
+        "radiometry/limits.csv",
+        "radiometry/summary.json",
+    ):
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy(RESULTS / rel, tmp_path / rel)
     summary = json.loads((RESULTS / "robustness/summary.json").read_text())
     ours = next(
-        i for i, r in enumerate(summary["rows"])
+        i
+        for i, r in enumerate(summary["rows"])
         if r["band_set"] == "recommended" and r["perturbation"] == "clean"
     )
     res = build_report(tmp_path, tmp_path / "out", strict=False)
@@ -415,8 +457,9 @@ def test_verdict_states_every_target_from_the_robustness_suite(tmp_path):
     g = rows["G index error (class-balanced MAE)"]
     assert g[1] == "≤ 0.25"
     assert g[3] == ("pass" if summary["rows"][ours]["G"] <= 0.25 else "fail")
-    limits = list(csv.DictReader((RESULTS / "radiometry/limits.csv").read_text()
-                                 .splitlines()))
+    limits = list(
+        csv.DictReader((RESULTS / "radiometry/limits.csv").read_text().splitlines())
+    )
     for r in limits:
         if r["band_set"] == "ours":
             want = "pass" if r["meets_snr_target"] == "True" else "fail"
@@ -431,6 +474,53 @@ def test_verdict_states_every_target_from_the_robustness_suite(tmp_path):
     text = build_report(tmp_path, tmp_path / "o3", strict=False).path.read_text()
     start = text.index('<section id="verdict">')
     assert "make robustness" in text[start : text.index("</section>", start)]
+
+
+def test_verdict_says_which_instrument_change_buys_the_snr(tmp_path):
+    """The instrument changes the radiometry computes (`instrument_changes`
+    from its limits) are stated under the SNR table, each knob with its value
+    now and needed; a radiometry run without them is named, not skipped."""
+    from bandopt.radiometry import instrument_changes
+    from bandopt.sensor import SensorParams
+
+    for rel in ("radiometry/limits.csv", "radiometry/summary.json"):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(RESULTS / rel, tmp_path / rel)
+    summary = json.loads((tmp_path / "radiometry/summary.json").read_text())
+    ours = [
+        r for r in summary["bands"] if r.get("band_set", "ours") == summary["band_set"]
+    ]
+    params = SensorParams(**summary["sensor_params"])
+    ch = instrument_changes(
+        params,
+        [r["exposure_factor_for_snr_target"] for r in ours],
+        [r["band"] for r in ours],
+    )
+    summary["instrument_changes"] = ch
+    (tmp_path / "radiometry/summary.json").write_text(json.dumps(summary))
+    text = build_report(tmp_path, tmp_path / "out", strict=False).path.read_text()
+    start = text.index('<section id="verdict">')
+    section = text[start : text.index("</section>", start)]
+    if ch["met"]:
+        assert "reaches the SNR target in every band" in section
+    else:
+        assert "What buys the SNR target" in section
+        page = _Page()
+        page.feed(section)
+        got = {
+            a["data-ptr"]
+            for a in page.nums
+            if a["data-src"] == "radiometry/summary.json"
+        }
+        for knob, c in ch["changes"].items():
+            assert f"/instrument_changes/changes/{knob}/now" in got
+            assert (
+                c["needed"] is None
+            ) or f"/instrument_changes/changes/{knob}/needed" in got
+    del summary["instrument_changes"]
+    (tmp_path / "radiometry/summary.json").write_text(json.dumps(summary))
+    text = build_report(tmp_path, tmp_path / "o2", strict=False).path.read_text()
+    assert "instrument changes in <code>results/radiometry/summary.json" in text
 
 
 def test_every_results_folder_is_shown_or_listed_as_not_part_of_it(built):

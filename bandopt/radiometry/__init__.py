@@ -38,6 +38,13 @@ from ._distributions import (
     radiance_groups as radiance_groups,
     radiance_percentiles as radiance_percentiles,
 )
+from ._instrument import (
+    F_NUMBER_LIMIT as F_NUMBER_LIMIT,
+    apply_change as apply_change,
+    f_number_for as f_number_for,
+    gsd_m as gsd_m,
+    instrument_changes as instrument_changes,
+)
 from ._limits import (
     LimitRule as LimitRule,
     Limits as Limits,

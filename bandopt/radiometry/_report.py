@@ -31,6 +31,7 @@ from ._background import (
 )
 from ._bitdepth import bit_depth_rows
 from ._distributions import GROUPS, RadianceGroups, distribution_rows, radiance_groups
+from ._instrument import instrument_changes
 from ._limits import (
     LimitRule,
     Limits,
@@ -407,6 +408,9 @@ def compute(
             "uncertainty_factor": BACKGROUND_UNCERTAINTY_FACTOR,
         },
         "sensor_params": sensor,
+        "instrument_changes": instrument_changes(
+            params, limits.exposure_factor, limits.band_names
+        ),
         "bits_linear_step_le_ner_at_limit": int(np.max(ours["bits_step_le_ner"])),
         "bit_depth": bits_rec,
         "bit_depth_table": bit_rows,

@@ -63,6 +63,26 @@ def readme_text(summary: dict) -> str:
         if comp
         else ""
     )
+    ch = summary.get("instrument_changes") or {}
+    change_text = ""
+    if ch.get("changes"):
+        c = ch["changes"]
+        f = c["f_number"]["needed"]
+        pitch = c["pixel_pitch_m"]["needed"] / c["pixel_pitch_m"]["now"]
+        change_text = (
+            f" To reach it in every band ({ch['limiting_band']} needs "
+            f"{ch['exposure_factor']:.3g} times the signal), any one of: TDI "
+            f"stages {c['tdi_stages']['now']} -> {c['tdi_stages']['needed']}; "
+            + (
+                f"f/{c['f_number']['now']:g} -> f/{f:.2g}; "
+                if f is not None
+                else "no f-number (faster than f/0.5); "
+            )
+            + f"pixel pitch x {pitch:.3g}"
+            f" (GSD {ch['gsd_m']:.3g} -> {c['pixel_pitch_m']['gsd_m']:.3g} m); "
+            f"{c['binning']['needed']} x {c['binning']['needed']} binning "
+            f"(GSD {c['binning']['gsd_m']:.3g} m)."
+        )
     return (
         "## Radiometry (`results/radiometry/`, `make radiometry`)\n\n"
         f"Band set `{label}` ({summary.get('band_set_note', '')}): bands "
@@ -73,7 +93,7 @@ def readme_text(summary: dict) -> str:
         + "; ".join(f"{k}: {', '.join(v)}" for k, v in sorted(by.items()))
         + f") and saturation {min(sat):.2g} to {max(sat):.2g}; SNR at the limit "
         f"{min(snr):.2g}-{max(snr):.2g} (target {target:g}, met in "
-        f"{sum(s >= target for s in snr)} of {len(snr)} bands). "
+        f"{sum(s >= target for s in snr)} of {len(snr)} bands)." + change_text + " "
         f"Linear bit depth needed: {bits.get('recommended_linear_bits')} bits "
         "(thesis: 12 or more)" + comp_text + ". Rules and the table per band set: "
         "`summary.json`, `limits.csv`, `bit_depth.csv`; generated from "

@@ -265,6 +265,51 @@ def _ptr(key: str) -> str:
     return key.replace("~", "~0").replace("/", "~1")
 
 
+def _changes(src: Sources) -> str:
+    """Which single instrument change reaches the SNR target at every band's
+    limit (radiometry's `instrument_changes`), or nothing when it is met."""
+    if not src.exists(RADIOMETRY):
+        return ""
+    if "instrument_changes" not in src.load(RADIOMETRY):
+        return missing_box(
+            "the instrument changes in <code>results/radiometry/summary.json</code>",
+            "run <code>make radiometry</code>",
+        )
+    ch = src.get(RADIOMETRY, "/instrument_changes")
+    if ch["met"]:
+        return "<p>The instrument assumed reaches the SNR target in every band.</p>"
+    base = "/instrument_changes/changes"
+    items = []
+    names = {
+        "tdi_stages": "TDI stages",
+        "f_number": "f-number",
+        "pixel_pitch_m": "pixel pitch [m]",
+        "binning": "binning (b x b pixels)",
+    }
+    for knob, c in ch["changes"].items():
+        needed = (
+            "none" if c["needed"] is None
+            else src.num(RADIOMETRY, f"{base}/{knob}/needed", digits=3)
+        )  # fmt: skip
+        items.append(
+            f"<li>{esc(names.get(knob, knob))}: "
+            + src.num(RADIOMETRY, f"{base}/{knob}/now", digits=3)
+            + f" &rarr; {needed} ({esc(c['also'])})</li>"
+        )
+    return (
+        "<p>What buys the SNR target: the limiting band "
+        + src.text(RADIOMETRY, "/instrument_changes/limiting_band")
+        + " needs "
+        + src.num(RADIOMETRY, "/instrument_changes/exposure_factor", digits=3)
+        + " times the signal; any one of these changes gives it to every band "
+        "(photon model, the sensor's GSD "
+        + src.num(RADIOMETRY, "/instrument_changes/gsd_m", digits=3)
+        + " m):</p><ul>"
+        + "".join(items)
+        + "</ul>"
+    )
+
+
 def _instrument(src: Sources) -> str:
     if not src.exists(RADIOMETRY):
         return ""
@@ -296,6 +341,7 @@ def verdict(ctx: Ctx) -> str:
         + est
         + _judge_table(src)
         + _radiometry_table(src)
+        + _changes(src)
         + _instrument(src)
         + "<p>Not judged yet: the ground sample distance (a detector at a fixed "
         "false-alarm rate per km² is not built; the spatial section's detection "
