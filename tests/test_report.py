@@ -264,28 +264,31 @@ def test_empty_results_names_every_experiment_missing(tmp_path, capsys):
     assert page.missing_boxes >= len(EXPERIMENTS)
 
 
-def test_inversion_coverage_is_read_from_results_estimate(tmp_path):
+def test_interval_section_gives_coverage_and_width_from_the_robustness_suite(tmp_path):
+    """The interval section tables coverage and median width of every band
+    set's clean row and of our bands' perturbed rows, each number linked to
+    its row of results/robustness/summary.json; without the suite it is
+    MISSING."""
     res_dir = tmp_path / "res"
-    (res_dir / "estimate").mkdir(parents=True)
-    cov = {
-        "nominal_coverage": 0.9,
-        "held_out_lamps": {"ours/unknown": {"LER_coverage": 0.85, "G_coverage": None}},
-    }
-    (res_dir / "estimate" / "coverage.json").write_text(json.dumps(cov))
-    res = build_report(res_dir, tmp_path / "out")
-    assert "estimate" not in res.missing
+    (res_dir / "robustness").mkdir(parents=True)
+    summary = json.loads((RESULTS / "robustness/summary.json").read_text())
+    (res_dir / "robustness/summary.json").write_text(json.dumps(summary))
+    res = build_report(res_dir, tmp_path / "out", strict=False)
+    assert "robustness" not in res.missing
+    text = res.path.read_text()
+    start = text.index('<section id="inversion">')
     page = _Page()
-    page.feed(res.path.read_text())
-    got = {
-        a["data-ptr"]: a["data-value"]
-        for a in page.nums
-        if a["data-src"] == "estimate/coverage.json"
-    }
-    assert got == {
-        "/nominal_coverage": "0.9",
-        "/held_out_lamps/ours~1unknown/LER_coverage": "0.85",
-        "/held_out_lamps/ours~1unknown/G_coverage": "None",
-    }
+    page.feed(text[start : text.index("</section>", start)])
+    got = {a["data-ptr"]: a["data-value"] for a in page.nums
+           if a["data-src"] == "robustness/summary.json"}  # fmt: skip
+    for i, r in enumerate(summary["rows"]):
+        shown = r["kind"] == "clean" or r["band_set"] == "recommended"
+        for col in ("LER_covered", "CCT_covered", "G_width_median"):
+            assert (f"/rows/{i}/{col}" in got) == shown, (i, col)
+            if shown:
+                assert float(got[f"/rows/{i}/{col}"]) == pytest.approx(r[col])
+    (res_dir / "robustness/summary.json").unlink()
+    assert "robustness" in build_report(res_dir, tmp_path / "o2", strict=False).missing
 
 
 # ------------------------------------------------------------------- tolerances

@@ -74,7 +74,11 @@ SECTIONS = (
     ("radiometry", "Radiometry: radiance histograms, limits, bit depth", "radiometry"),
     ("spatial", "Spatial sampling: rendered scenes and detection vs GSD", "spatial"),
     ("overlap", "Overlapping lamp types", "overlap"),
-    ("inversion", "Inversion estimator: interval coverage", "inversion"),
+    (
+        "inversion",
+        "Intervals of the shipped estimator: coverage and width",
+        "inversion",
+    ),
     ("provenance", "Provenance", "provenance"),
     ("consistency", "Consistency checks", None),
 )

@@ -44,7 +44,6 @@ from ._sections_sensor import (
     recommended_sensor as recommended_sensor,
 )
 from ._sections_studies import (
-    _find_coverage as _find_coverage,
     classification as classification,
     inversion as inversion,
     overlap as overlap,
