@@ -83,6 +83,29 @@ def built(tmp_path_factory):
     return res, page
 
 
+def test_each_result_section_states_its_conditions(built):
+    """Every section that shows numbers of one study opens with the scenes,
+    noise, measurement effects and estimator they come from, read from that
+    study's files (so two sections on different footings say so)."""
+    res, _ = built
+    text = res.path.read_text()
+    for sid, want in (
+        ("verdict", "held-out measured lamps over"),
+        ("comparison", "no Moon"),
+        ("band-count", "measurement effects: none"),
+        ("search", "ridge surrogate"),
+        ("classification", "the study's own band search"),
+        ("radiometry", "lighting classes"),
+        ("spatial", "sub-pixel phases per GSD"),
+        ("inversion", "Moon told"),
+    ):
+        start = text.index(f'<section id="{sid}">')
+        section = text[start : text.index("</section>", start)]
+        at = section.find('<p class="conditions"><strong>Conditions.</strong>')
+        assert at >= 0, sid
+        assert want in section[at : section.index("</p>", at)], sid
+
+
 def test_every_section_present_in_order(built):
     _, page = built
     assert page.sections == [sid for sid, _, _ in SECTIONS]

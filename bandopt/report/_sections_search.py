@@ -3,6 +3,7 @@ reference sensor, the error vs band count (with its figure) and the
 stability and Pareto figures, all read from `results/search/`.
 """
 
+from . import _conditions
 from ._experiments import METRICS, UNITS, Ctx, needs
 from ._html import esc, figure_png, table
 from ._source import Sources, pointer
@@ -48,6 +49,7 @@ def comparison(ctx: Ctx) -> str:
             *red,
         ])
     out = [
+        _conditions.search_context(src, C, estimator=src.text(C, "/estimator/note")),
         "<p>Every reference sensor is scored with the same estimator on the same "
         f"lamp partitions ({src.text(C, '/estimator/note')}). Errors: mean &plusmn; "
         "SD over partitions of the class-balanced outer-test MAE. Reductions: "
@@ -143,7 +145,8 @@ def band_count(ctx: Ctx) -> str:
         "chosen n). Drawn from results/search/compare.json.")
     plt.close(fig)
     return (
-        f"<p>Rule: {src.text(C, '/band_count/rule')}. Chosen n = "
+        _conditions.search_context(src, C, estimator=src.text(C, "/estimator/note"))
+        + f"<p>Rule: {src.text(C, '/band_count/rule')}. Chosen n = "
         f"{src.num(C, '/band_count/chosen_n')} (best n = "
         f"{src.num(C, '/band_count/best_n')}).</p>"
         + table(["bands", "normalised MAE", "LER MAE [lm/W]", "G MAE", "CCT MAE [K]",
@@ -169,7 +172,12 @@ def search_figures(ctx: Ctx) -> str:
                 src.num(P, p + "/snr_median", digits=2),
             ])
     return (
-        src.image("search/stability.png",
+        _conditions.search_context(
+            src, "search/compare.json", estimator="the search's closed-form ridge "
+            "surrogate inside the inner folds (its outer-test judge as in the "
+            "comparison)",
+        )
+        + src.image("search/stability.png",
                   "Stability of the recommended bands over lamp resamples")
         + src.image("search/pareto.png",
                     "Pareto front: estimation error vs classification vs SNR")

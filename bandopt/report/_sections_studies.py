@@ -4,6 +4,7 @@ the inversion estimator's interval coverage, each read only from its
 folder of `results/` (a MISSING box when the study has not run).
 """
 
+from . import _conditions
 from ._experiments import METRICS, UNITS, Ctx, needs
 from ._html import esc, table
 from ._source import missing_box, pointer
@@ -14,6 +15,7 @@ def classification(ctx: Ctx) -> str:
     src = ctx.src
     K = "classify/summary.json"
     out = [
+        _conditions.classification(src),
         "<p>The classification experiment searches its own band set (nested "
         "lamp-grouped CV); the confusion matrices are for that set (n = "
         + src.num(K, "/chosen_n_bands") + "), nested level-2 macro F1 "
@@ -44,7 +46,8 @@ def radiometry(ctx: Ctx) -> str:
     src = ctx.src
     S = "radiometry/summary.json"
     L = "radiometry/limits.csv"
-    out = [f"<p>Limit rule: {src.text(S, '/rule_text')}</p>"]
+    out = [_conditions.radiometry(src),
+           f"<p>Limit rule: {src.text(S, '/rule_text')}</p>"]
     rows = []
     for i, r in enumerate(src.load(L)):
         rows.append([
@@ -98,6 +101,7 @@ def spatial(ctx: Ctx) -> str:
                else "none"]
         )
     out = [
+        _conditions.spatial(src),
         f"<p>Thesis: {src.text(S, '/thesis')}. Assumptions: "
         + esc("; ".join(summ.get("assumptions", []))) + ".</p>",
         table(["scene"] + [f"F1 at {g} m" for g in gsds] + ["coarsest GSD [m]"],
@@ -170,7 +174,8 @@ def inversion(ctx: Ctx) -> str:
             for i, r in enumerate(rows)
             if r["band_set"] == "recommended" and r["kind"] != "clean"]
     return (
-        "<p>The 90 % intervals <code>bandopt evaluate</code> gives (surface "
+        _conditions.robustness(src)
+        + "<p>The 90 % intervals <code>bandopt evaluate</code> gives (surface "
         "unknown, Moon told), on held-out measured lamps over "
         + src.num(INTERVALS, "/partitions", digits=1)
         + " lamp partitions: coverage is the class-balanced share of pixels whose "

@@ -11,6 +11,7 @@ perturbed lamps, comes from `results/judge/`. A target no
 experiment judges yet is listed as not judged, never left out.
 """
 
+from . import _conditions
 from ._experiments import Ctx
 from ._html import esc, table
 from ._source import Sources, missing_box
@@ -330,7 +331,7 @@ def verdict(ctx: Ctx) -> str:
             "run <code>make robustness</code>",
         )
     else:
-        est = _estimation_table(src)
+        est = _conditions.robustness(src) + _estimation_table(src)
     return (
         "<p>Estimation and lamp types: <code>bandopt evaluate</code>'s estimator "
         "(surface unknown, Moon told), fitted per lamp partition on the training "
