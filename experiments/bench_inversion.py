@@ -35,7 +35,9 @@ run's: Linux keeps it across fork and exec, so it starts at the high-water
 mark of the process that started the server (this one, after fitting).
 The same pixels are then predicted with float32 scoring (`Inversion.predict(
 dtype='float32')`, after its own warm-up; `peak_rss_mb_float64` is the peak
-before it). The `exp`
+before it), then with pruned scoring (`prune=PRUNE_TOLERANCE`) in float64
+and float32, each with its largest differences from the unpruned float64
+prediction. The `exp`
 floor is the time of the `exp` calls the scoring makes per pixel (counted
 from the prior's, surface candidates' and atmospheres' sizes, the band-error
 models and the flag's inner folds) done alone, in the same process.
@@ -336,6 +338,7 @@ def _scale_run(path: str, n: int) -> dict:
     import jax
     import jax.numpy as jnp
 
+    from bandopt import inversion as inv_mod
     from bandopt.estimators import Surface
     from bandopt.spectra import GRID_1NM
 
@@ -360,6 +363,22 @@ def _scale_run(path: str, n: int) -> dict:
     t0 = time.perf_counter()
     fitted.model.predict(pix, None, zero, dtype="float32")
     t_f32 = time.perf_counter() - t0
+    # pruned scoring (`Inversion.predict(prune=)`), float64 and float32, each
+    # after its own warm-up, with its largest differences from the unpruned
+    # float64 prediction
+    tol = inv_mod.PRUNE_TOLERANCE
+    full = fitted.model.predict(pix, None, zero)
+    pruned = {}
+    for name, dt in (("float64", None), ("float32", "float32")):
+        fitted.model.predict(warm, None, zero[: len(warm)], dtype=dt, prune=tol)
+        t0 = time.perf_counter()
+        got = fitted.model.predict(pix, None, zero, dtype=dt, prune=tol)
+        t_p = time.perf_counter() - t0
+        pruned[name] = {
+            "pixels_per_s": n / t_p,
+            "ratio_unpruned_float64_to_this": t_inv / t_p,
+            "max_abs_diff_vs_unpruned_float64": _max_diffs(got, full),
+        }
     x = jnp.asarray(pix)
     t_ridge = best_time(lambda: ridge.predict(x))  # compiled for n first
     n_exp = _exp_count(fitted.model)
@@ -374,6 +393,10 @@ def _scale_run(path: str, n: int) -> dict:
         "ratio_inversion_to_ridge": t_inv / t_ridge,
         "inversion_float32_pixels_per_s": n / t_f32,
         "ratio_float64_to_float32": t_inv / t_f32,
+        "prune_tolerance": tol,
+        "inversion_pruned_float64_pixels_per_s": pruned["float64"]["pixels_per_s"],
+        "inversion_pruned_float32_pixels_per_s": pruned["float32"]["pixels_per_s"],
+        "pruned": pruned,
         "exp_per_pixel": n_exp,
         "exp_floor_pixels_per_s": 1.0 / t_exp,
         "ratio_inversion_to_exp_floor": (t_inv / n) / t_exp,
@@ -383,6 +406,36 @@ def _scale_run(path: str, n: int) -> dict:
         "peak_rss_mb": _vm_hwm_kb() / 1024,
         "ru_maxrss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
     }
+
+
+def _max_diffs(got, want) -> dict:
+    """Largest absolute difference of each float output of two
+    `InversionResult`s (NaN where both are NaN counts as equal), and the
+    number of pixels whose type calls or flag differ."""
+    out = {}
+    for name in (
+        "estimate",
+        "interval90",
+        "cct_probability",
+        "misfit",
+        "level1_probabilities",
+        "level2_probabilities",
+        "known_type_p",
+    ):
+        g, w = getattr(got, name), getattr(want, name)
+        same_nan = np.isnan(g) == np.isnan(w)
+        d = np.where(np.isnan(g) & np.isnan(w), 0.0, np.abs(g - w))
+        out[name] = float(np.max(d)) if same_nan.all() else float("inf")
+    out["calls_or_flags_differ"] = int(
+        sum(
+            a != b or c != d or e != f
+            for a, b, c, d, e, f in zip(
+                got.level1, want.level1, got.level2, want.level2,
+                got.unexplained, want.unexplained, strict=True,
+            )
+        )
+    )  # fmt: skip
+    return out
 
 
 def _vm_hwm_kb() -> float:

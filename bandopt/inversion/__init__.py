@@ -90,6 +90,7 @@ prior mass. `bandopt.estimators.InversionConfig` turns both on.
   `shifted_lamps`, `nir_variants`, `variant_base`);
 - `_prior`: the class-balanced lamp prior (`LampPrior`, `lamp_prior`);
 - `_scoring`: candidates, χ², the compiled scoring and the band-error model;
+- `_prune`: scoring only the lamps that can matter, with a bounded error;
 - `_metrics`: posterior means and ranges of LER, G and CCT, `PHYSICAL_RANGE`;
 - `_model`: `Inversion` (its `predict` in chunks of bounded memory),
   `build_inversion`;
@@ -195,6 +196,11 @@ from ._model import (
 from ._prior import (
     LampPrior as LampPrior,
     lamp_prior as lamp_prior,
+)
+from ._prune import (
+    PRUNE_TOLERANCE as PRUNE_TOLERANCE,
+    _score_pruned as _score_pruned,
+    prune_margin as prune_margin,
 )
 from ._records import (
     LampScore as LampScore,

@@ -167,6 +167,7 @@ class Inversion:
         floors=None,
         shared=None,
         dtype=None,
+        prune=None,
     ):
         """Posterior over prior lamps (n, k) and reduced χ² (n,); with `sigmas`
         (S,) one of each per `σ_rel`: (n, S, k), (n, S) (`floors`: the band-
@@ -181,7 +182,8 @@ class Inversion:
         `shared`: whether every pixel has the same surface candidates, as
         `shared_surface` decides for a whole image of which these pixels are
         a chunk (default None: decided from these pixels). `dtype`: of the
-        scoring, float64 (default None) or float32 (see `predict`)."""
+        scoring, float64 (default None) or float32 (see `predict`).
+        `prune`: see `predict`."""
         y = np.atleast_2d(np.asarray(radiance, float))
         cand, lps = self.candidates(y.shape[0], surface)
         a, q = self.design
@@ -193,7 +195,7 @@ class Inversion:
         noise = np.column_stack([np.asarray(sig, float), fl])
         lk, chi = _score(
             y, cand, lps, a, q, self.prior.log_prior, noise, moon,
-            shared=shared, dtype=dtype,
+            shared=shared, dtype=dtype, prune=prune,
         )  # fmt: skip
         norm, post = (np.asarray(x) for x in _normalise(jnp.asarray(lk)))
         dof = np.full(y.shape[0], max(self._dof(), 1), float)
@@ -207,8 +209,9 @@ class Inversion:
         return tuple(x[:, 0] for x in out) if sigmas is None else out
 
     def known_type_p_value(
-        self, radiance, surface=None, moon=None, *, shared=None, dtype=None
-    ) -> np.ndarray:
+        self, radiance, surface=None, moon=None, *, shared=None, dtype=None,
+        prune=None,
+    ) -> np.ndarray:  # fmt: skip
         """Cross-conformal, class-conditional p-value (`Vovk2015`; Mondrian
         by level-1 type, `Vovk2005` ch. 4) that each pixel's lamp is as well
         explained as a new lamp of the type it is called, (n,). Under each
@@ -228,7 +231,7 @@ class Inversion:
         The final prior's own misfits are not comparable with the folds'
         (it has more lamps, so it explains every pixel better). NaN without
         `flag_folds` (an inversion not made by `fit_inversion`). `shared`,
-        `dtype`: see `posterior`."""
+        `dtype`, `prune`: see `posterior`."""
         y = np.atleast_2d(np.asarray(radiance, float))
         if not self.flag_folds:
             return np.full(y.shape[0], np.nan)
@@ -238,7 +241,7 @@ class Inversion:
         for fold in self.flag_folds:
             post, mis = fold.model.posterior(
                 y, surface, [sig], moon=moon, floors=[floor], shared=shared,
-                dtype=dtype,
+                dtype=dtype, prune=prune,
             )  # fmt: skip
             post, mis = post[:, 0], mis[:, 0]
             types = [LEVEL2_PARENT.get(c, c) for c in fold.model.prior.level2]
@@ -324,6 +327,7 @@ class Inversion:
         chunk_pixels: int | None = None,
         memory_bytes: int = PREDICT_MEMORY_BYTES,
         dtype=None,
+        prune=None,
     ) -> InversionResult:
         """Invert band radiances (n, b) (any brightness; `moon`: known Moon
         brightness per pixel, see `posterior`). Types, misfit and flag come
@@ -351,28 +355,40 @@ class Inversion:
         `FLOAT32_TOLERANCE` is the tested bound. The misfit is a difference
         of nearly equal weighted sums where a lamp fits far better than the
         band error, so float32 loses most there; float64 stays the default
-        (the estimates' difference is above 0.1 %)."""
+        (the estimates' difference is above 0.1 %).
+
+        `prune`: a tolerance in (0, 1), e.g. `PRUNE_TOLERANCE`, to score each
+        pixel only against the lamps that can carry more than it of the
+        posterior mass relative to the best lamp's (`_prune`: a bound, not
+        an estimate; the misfit stays exact), where the surface candidates
+        are shared and no Moon amplitude is fitted; None (default): every
+        lamp. Lamp and type probabilities move by at most the tolerance,
+        the estimates by at most it times each metric's range over the
+        prior; an interval bound moves only where a posterior's cumulative
+        weight lies within the tolerance of its 5 % or 95 % level
+        (`PRUNE_TOLERANCE` states what is tested)."""
         y = np.atleast_2d(np.asarray(radiance, float))
         step = self._step(chunk_pixels, memory_bytes)
         if y.shape[0] <= step:
-            return self._predict_chunk(y, surface, moon, None, dtype)
+            return self._predict_chunk(y, surface, moon, None, dtype, prune)
         return InversionResult.concatenate(
             [
                 r
                 for _, r in self.predict_chunks(
-                    y, surface, moon, chunk_pixels=step, dtype=dtype
+                    y, surface, moon, chunk_pixels=step, dtype=dtype, prune=prune
                 )
             ]
         )
 
     def predict_chunks(
-        self, radiance, surface=None, moon=None, chunk_pixels=None, dtype=None
-    ):
+        self, radiance, surface=None, moon=None, chunk_pixels=None, dtype=None,
+        prune=None,
+    ):  # fmt: skip
         """`predict` one chunk at a time: yields (first pixel's index,
         `InversionResult` of the chunk), so a caller that writes each chunk
         out (e.g. a map, tile by tile) holds one chunk's results at a time.
         The chunks' results are `predict`'s rows. `chunk_pixels`: default
-        `predict_chunk_pixels()`; `dtype`: see `predict`."""
+        `predict_chunk_pixels()`; `dtype`, `prune`: see `predict`."""
         y = np.atleast_2d(np.asarray(radiance, float))
         n = y.shape[0]
         step = self._step(chunk_pixels, PREDICT_MEMORY_BYTES)
@@ -389,6 +405,7 @@ class Inversion:
                     None if moon is None else moon[i : i + step],
                     shared,
                     dtype,
+                    prune,
                 ),
             )
 
@@ -403,21 +420,26 @@ class Inversion:
             raise ValueError(f"chunk_pixels must be >= 1 (got {chunk_pixels}).")
         return step
 
-    def _predict_chunk(self, y, surface, moon, shared, dtype=None) -> InversionResult:
-        """`predict` of one chunk of pixels `y` (n, b) (`shared`, `dtype`: see
-        `posterior`)."""
+    def _predict_chunk(
+        self, y, surface, moon, shared, dtype=None, prune=None
+    ) -> InversionResult:
+        """`predict` of one chunk of pixels `y` (n, b) (`shared`, `dtype`,
+        `prune`: see `posterior`)."""
         joint = (self.sigma_rel, self.sigma_floor)
         flag = self.flag_noise or joint
         noise = self._predict_noise()
-        p_known = self.known_type_p_value(y, surface, moon, shared=shared, dtype=dtype)
+        p_known = self.known_type_p_value(
+            y, surface, moon, shared=shared, dtype=dtype, prune=prune
+        )
         if len(noise) == 1:
             post, misfit = self.posterior(
-                y, surface, moon=moon, shared=shared, dtype=dtype
+                y, surface, moon=moon, shared=shared, dtype=dtype, prune=prune
             )
             return _result(self, post, misfit, p_known=p_known)
         posts, misfits = self.posterior(
             y, surface, [n[0] for n in noise], moon=moon,
             floors=[n[1] for n in noise], shared=shared, dtype=dtype,
+            prune=prune,
         )  # fmt: skip
         j = noise.index(joint)
         by_metric = [posts[:, noise.index(x)] for x in self.metric_noise]

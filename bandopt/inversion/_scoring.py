@@ -362,7 +362,10 @@ def _chunk(base: int, k: int) -> int:
     return c
 
 
-def _score(y, cand, log_ps, a, q, log_pk, noise, moon_b=None, shared=None, dtype=None):
+def _score(
+    y, cand, log_ps, a, q, log_pk, noise, moon_b=None, shared=None, dtype=None,
+    prune=None,
+):  # fmt: skip
     """Chunked, padded `_score_chunk`: (log evidence (n, S, k), χ² (n, S));
     `noise (S, 2)`: (`σ_rel`, floor) per band-error model.
     `moon_b` (n,): known Moon amplitudes (relative to `q`'s Moon state; NaN:
@@ -374,7 +377,12 @@ def _score(y, cand, log_ps, a, q, log_pk, noise, moon_b=None, shared=None, dtype
     `dtype`: of the compiled scoring, float64 (default) or float32
     (`SCORE_DTYPES`; see `Inversion.predict` for what float32 changes); the
     results are float64 either way. A float32 score that is not finite
-    raises `FloatingPointError` instead of becoming a NaN posterior."""
+    raises `FloatingPointError` instead of becoming a NaN posterior.
+    `prune`: a tolerance in (0, 1) to score only the lamps that can carry
+    more than it of the posterior mass (`_prune`; pruned lamps' log evidence
+    is -inf, the misfit stays exact), on the shared path with no Moon
+    amplitude to fit (no Moon term, or every pixel's told); elsewhere, or
+    None (default), every lamp is scored."""
     dt = _score_dtype(dtype)
     noise = np.asarray(noise, float)
     if noise.ndim != 2 or noise.shape[1] != 2:
@@ -412,6 +420,27 @@ def _score(y, cand, log_ps, a, q, log_pk, noise, moon_b=None, shared=None, dtype
         shared = bool(
             n > 1 and np.all(cand == cand[:1]) and np.all(log_ps == log_ps[:1])
         )
+    all_known = moon_b is not None and bool(np.all(np.isfinite(moon_b)))
+    if shared and prune is not None and (q is None or all_known):
+        from ._prune import _score_pruned  # it builds on this module
+
+        c0 = np.asarray(cand[0], float)
+        pk = np.einsum("kabr,sr->ksab", np.asarray(a[:k], float), c0)
+        s_, a_ = pk.shape[1:3]
+        qf = None if q is None else np.einsum("abr,sr->sab", q, c0)
+        qf = None if qf is None else qf.reshape(s_ * a_, -1)
+        lk, chi, _ = _score_pruned(
+            y,
+            pk.reshape(k, s_ * a_, -1),
+            np.repeat(np.asarray(log_ps[0], float), a_),
+            np.asarray(log_pk[:k], float),
+            noise,
+            prune,
+            None if qf is None else moon_b,
+            qf,
+            dt,
+        )
+        return _finite(lk, chi, dt)
     if shared:
         # one set of surface candidates for every pixel (mode 'unknown')
         p = jnp.einsum("kabr,sr->ksab", jnp.asarray(a), jnp.asarray(cand[0]))
@@ -419,7 +448,6 @@ def _score(y, cand, log_ps, a, q, log_pk, noise, moon_b=None, shared=None, dtype
         p = p.astype(dt)
         npad = -(-n // shared_chunk) * shared_chunk
         y = np.concatenate([y, np.ones((npad - n, y.shape[1]))]).astype(dt)
-        all_known = moon_b is not None and bool(np.all(np.isfinite(moon_b)))
         mb = (
             None
             if moon_b is None
@@ -501,8 +529,12 @@ def _score_dtype(dtype):
 
 def _finite(lk, chi, dt):
     """`lk`, `chi`, checked finite when scored in float32 (where a misfit can
-    overflow); float64 scores are returned as they are."""
-    if dt != np.float64 and not (np.isfinite(lk).all() and np.isfinite(chi).all()):
+    overflow; -inf, a pruned lamp, is allowed where some lamp of the row is
+    finite); float64 scores are returned as they are."""
+    if dt != np.float64 and not (
+        np.isfinite(lk.max(axis=-1)).all() and not np.isnan(lk).any()
+        and np.isfinite(chi).all()
+    ):  # fmt: skip
         raise FloatingPointError(
             "float32 scoring gave a non-finite score; use dtype=float64."
         )
