@@ -224,6 +224,7 @@ INVERSION_FLOORS = (
     "_variants",
     "_prior",
     "_scoring",
+    "_prune",
     "_metrics",
     "_result",
     "_model",

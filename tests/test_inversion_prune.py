@@ -27,7 +27,7 @@ def _scored(inv, y, moon, prune):
     noise = np.asarray(inv._predict_noise())
     cand, lps = inv.candidates(y.shape[0])
     a, q = inv.design
-    return inv_mod._score(
+    return inv_mod.score_pruned(
         y, cand, lps, a, q, inv.prior.log_prior, noise, moon, shared=True,
         prune=prune,
     )  # fmt: skip

@@ -201,6 +201,7 @@ from ._prune import (
     PRUNE_TOLERANCE as PRUNE_TOLERANCE,
     _score_pruned as _score_pruned,
     prune_margin as prune_margin,
+    score_pruned as score_pruned,
 )
 from ._records import (
     LampScore as LampScore,

@@ -11,6 +11,7 @@ import numpy as np
 from ..calibration import MISFIT_FLOOR, temper
 from ..datasets.lamps import LEVEL1, LEVEL2, LEVEL2_PARENT
 from ..estimate import METRICS, MIRED
+from . import _prune
 from ._conditions import Conditions
 from ._lamps import LampSet
 from ._metrics import _metrics_per_posterior, _widened
@@ -21,7 +22,6 @@ from ._scoring import (
     SIGMA_FLOOR,
     _design,
     _normalise,
-    _score,
     log_evidence,
     predict_chunk_pixels,
 )
@@ -193,7 +193,7 @@ class Inversion:
             (len(sig),),
         )
         noise = np.column_stack([np.asarray(sig, float), fl])
-        lk, chi = _score(
+        lk, chi = _prune.score_pruned(
             y, cand, lps, a, q, self.prior.log_prior, noise, moon,
             shared=shared, dtype=dtype, prune=prune,
         )  # fmt: skip

@@ -27,7 +27,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._scoring import _log_sum_chi, _tiny
+from ._scoring import _finite, _log_sum_chi, _score, _score_dtype, _tiny
 
 
 PRUNE_TOLERANCE = 1e-6
@@ -225,3 +225,53 @@ def _score_pruned(y, p, lps, log_pk, noise, tolerance, beta=None, qf=None, dtype
     best = lk.max(axis=-1, keepdims=True)  # (n, S, 1), >= l0
     mass = np.sum(np.exp(np.where(alive[:, None], -np.inf, u[:, None] - best)), axis=-1)
     return lk, chi, mass
+
+
+def score_pruned(
+    y, cand, log_ps, a, q, log_pk, noise, moon_b=None, shared=None, dtype=None,
+    prune=None,
+):  # fmt: skip
+    """`_scoring._score` with `prune`: a tolerance in (0, 1) to score only the
+    lamps that can carry more than it of the posterior mass (pruned lamps'
+    log evidence is -inf, the misfit stays exact), where every pixel shares
+    its surface candidates and no Moon amplitude is fitted (no Moon term, or
+    every pixel's told); elsewhere, or with `prune` None, `_score` of every
+    lamp."""
+    if prune is None:
+        return _score(
+            y, cand, log_ps, a, q, log_pk, noise, moon_b, shared=shared, dtype=dtype
+        )
+    y = np.asarray(y, float)
+    cand = np.asarray(cand, float)
+    noise = np.asarray(noise, float)
+    n, k = y.shape[0], a.shape[0]
+    if shared is None:
+        shared = bool(
+            n > 1 and np.all(cand == cand[:1]) and np.all(log_ps == log_ps[:1])
+        )
+    mb = None if moon_b is None else np.asarray(moon_b, float).reshape(-1)
+    if q is None and mb is not None and not np.any(np.nan_to_num(mb, nan=0.0) != 0):
+        mb = None  # no Moon term and no amplitude: as `_score` reads it
+    all_known = mb is not None and bool(np.all(np.isfinite(mb)))
+    if not (shared and (q is None or all_known)) or noise.ndim != 2:
+        return _score(
+            y, cand, log_ps, a, q, log_pk, noise, moon_b, shared=shared, dtype=dtype
+        )
+    dt = _score_dtype(dtype)
+    c0 = np.asarray(cand[0], float)
+    pk = np.einsum("kabr,sr->ksab", np.asarray(a[:k], float), c0)
+    s_, a_ = pk.shape[1:3]
+    qf = None if q is None else np.einsum("abr,sr->sab", q, c0)
+    qf = None if qf is None else qf.reshape(s_ * a_, -1)
+    lk, chi, _ = _score_pruned(
+        y,
+        pk.reshape(k, s_ * a_, -1),
+        np.repeat(np.asarray(log_ps[0], float), a_),
+        np.asarray(log_pk[:k], float),
+        noise,
+        prune,
+        None if qf is None else mb,
+        qf,
+        dt,
+    )
+    return _finite(lk, chi, dt)

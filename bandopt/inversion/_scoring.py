@@ -364,7 +364,6 @@ def _chunk(base: int, k: int) -> int:
 
 def _score(
     y, cand, log_ps, a, q, log_pk, noise, moon_b=None, shared=None, dtype=None,
-    prune=None,
 ):  # fmt: skip
     """Chunked, padded `_score_chunk`: (log evidence (n, S, k), χ² (n, S));
     `noise (S, 2)`: (`σ_rel`, floor) per band-error model.
@@ -378,11 +377,7 @@ def _score(
     (`SCORE_DTYPES`; see `Inversion.predict` for what float32 changes); the
     results are float64 either way. A float32 score that is not finite
     raises `FloatingPointError` instead of becoming a NaN posterior.
-    `prune`: a tolerance in (0, 1) to score only the lamps that can carry
-    more than it of the posterior mass (`_prune`; pruned lamps' log evidence
-    is -inf, the misfit stays exact), on the shared path with no Moon
-    amplitude to fit (no Moon term, or every pixel's told); elsewhere, or
-    None (default), every lamp is scored."""
+    Pruned scoring is `_prune.score`, which falls back to this."""
     dt = _score_dtype(dtype)
     noise = np.asarray(noise, float)
     if noise.ndim != 2 or noise.shape[1] != 2:
@@ -421,26 +416,6 @@ def _score(
             n > 1 and np.all(cand == cand[:1]) and np.all(log_ps == log_ps[:1])
         )
     all_known = moon_b is not None and bool(np.all(np.isfinite(moon_b)))
-    if shared and prune is not None and (q is None or all_known):
-        from ._prune import _score_pruned  # it builds on this module
-
-        c0 = np.asarray(cand[0], float)
-        pk = np.einsum("kabr,sr->ksab", np.asarray(a[:k], float), c0)
-        s_, a_ = pk.shape[1:3]
-        qf = None if q is None else np.einsum("abr,sr->sab", q, c0)
-        qf = None if qf is None else qf.reshape(s_ * a_, -1)
-        lk, chi, _ = _score_pruned(
-            y,
-            pk.reshape(k, s_ * a_, -1),
-            np.repeat(np.asarray(log_ps[0], float), a_),
-            np.asarray(log_pk[:k], float),
-            noise,
-            prune,
-            None if qf is None else moon_b,
-            qf,
-            dt,
-        )
-        return _finite(lk, chi, dt)
     if shared:
         # one set of surface candidates for every pixel (mode 'unknown')
         p = jnp.einsum("kabr,sr->ksab", jnp.asarray(a), jnp.asarray(cand[0]))
