@@ -106,6 +106,8 @@ def spatial(ctx: Ctx) -> str:
         + esc("; ".join(summ.get("assumptions", []))) + ".</p>",
         table(["scene"] + [f"F1 at {g} m" for g in gsds] + ["coarsest GSD [m]"],
               rows, caption="Single-lamp detection F1 vs GSD"),
+        (f"<p>Why F1 is not monotonic in GSD: {src.text(S, '/why')}</p>"
+         if "why" in summ else ""),
         src.image("spatial/f1_by_gsd.png", "Detection F1 vs GSD"),
     ]
     for scene in ("single-sided", "staggered"):
@@ -133,11 +135,35 @@ def overlap(ctx: Ctx) -> str:
             src.num(O, p + "/f1_pure", digits=2), src.num(O, p + "/f1_mixed", digits=2),
             src.num(O, p + "/macro_f1", digits=2),
         ])
+    classes = sorted({c for r in src.get(O, "/rows")
+                      for c in r.get("n_per_class", {})})  # fmt: skip
+    per_class = []
+    for i, r in enumerate(src.get(O, "/rows")):
+        if "n_per_class" not in r:
+            continue
+        cells = [src.num(O, f"/rows/{i}/gsd_m")]
+        for c in classes:
+            if c in r["n_per_class"]:
+                cells.append(src.num(O, f"/rows/{i}/f1_per_class/{c}", digits=2)
+                             + " (n = " + src.num(O, f"/rows/{i}/n_per_class/{c}")
+                             + ")")  # fmt: skip
+            else:
+                cells.append("no pixel")
+        per_class.append(cells)
+    by_class = (
+        table(["GSD [m]"] + [f"F1 {esc(c)} (lit pixels)" for c in classes], per_class,
+              caption="Per class: F1 and the lit pixels whose dominant type it is "
+              "(a class with few pixels left cannot carry a macro F1)")
+        if per_class else
+        missing_box("per-class counts in <code>results/spatial/overlap.json</code>",
+                    "re-run <code>make spatial</code>")
+    )  # fmt: skip
     return (
         f"<p>Bands: {src.text(O, '/bands')}.</p>"
         + table(["GSD [m]", "lit pixels", "mixed fraction", "F1 pure pixels",
                  "F1 mixed pixels", "macro F1"], rows,
                 caption="Lamp type where two types overlap (mixed-led-hps layout)")
+        + by_class
         + src.image("spatial/overlap.png", "Lamp-type F1 with overlapping types")
     )
 

@@ -21,15 +21,20 @@ from .._photometric import (
     read_lop as read_lop,
     read_photometry as read_photometry,
 )
+from ._background import background_image as background_image
 from ._detect import (
     DOG_RATIO as DOG_RATIO,
     DOG_SIGMA_M as DOG_SIGMA_M,
+    FALSE_ALARMS_PER_KM2 as FALSE_ALARMS_PER_KM2,
     MIN_MATCH_RADIUS_M as MIN_MATCH_RADIUS_M,
     NOISE_SIGMAS as NOISE_SIGMAS,
     RELATIVE_THRESHOLD as RELATIVE_THRESHOLD,
     Detections as Detections,
     Score as Score,
+    cfar_factor as cfar_factor,
     detect_lamps as detect_lamps,
+    dog_kernel as dog_kernel,
+    dog_noise_sigma as dog_noise_sigma,
     dog_response as dog_response,
     match as match,
     match_radius_m as match_radius_m,
@@ -47,6 +52,7 @@ from ._imaging import (
     block_mean as block_mean,
     gsd_grid as gsd_grid,
     mtf_at_nyquist as mtf_at_nyquist,
+    noise_variance as noise_variance,
     psf_sigma_m as psf_sigma_m,
     resample_to_gsd as resample_to_gsd,
     sensor_image as sensor_image,
@@ -103,13 +109,15 @@ from ._render import (
     uplight_images as uplight_images,
 )
 from ._study import (
-    ASSUMPTIONS as ASSUMPTIONS,
     GsdStudy as GsdStudy,
+    assumptions as assumptions,
     recommend_from_summary as recommend_from_summary,
     recommend_spatial as recommend_spatial,
     run_gsd_study as run_gsd_study,
     study_atmosphere as study_atmosphere,
+    study_bands as study_bands,
     study_scenes as study_scenes,
+    study_sensor as study_sensor,
 )
 from ._sweep import (
     F1_NEEDED as F1_NEEDED,

@@ -21,7 +21,13 @@ from ._detect import (
     match_radius_m,
     unique_targets as _unique,
 )
-from ._imaging import gsd_grid, psf_sigma_m, resample_to_gsd, sensor_image
+from ._imaging import (
+    gsd_grid,
+    noise_variance,
+    psf_sigma_m,
+    resample_to_gsd,
+    sensor_image,
+)
 from ._render import Grid, SceneImage
 
 
@@ -42,6 +48,8 @@ class Observation:
     detections: Detections
     score: Score
     phase_px: tuple[int, int]
+    detected: np.ndarray | None = None
+    """The 2-D image the detector ran on (None: the mean of the bands)."""
 
 
 def true_targets(scene: SceneImage) -> np.ndarray:
@@ -61,13 +69,24 @@ def observe(
     mtf_nyquist: float | None = None,
     noise: bool = True,
     bit_depth: int | None = DEFAULT_BIT_DEPTH,
-    saturation_w_m2_sr_nm: float = DEFAULT_SATURATION_W_M2_SR_NM,
+    saturation_w_m2_sr_nm=DEFAULT_SATURATION_W_M2_SR_NM,
+    detection_limit_w_m2_sr_nm=0.0,
+    background: np.ndarray | None = None,
+    false_alarms_per_km2: float | None = None,
+    detection_band: str | None = None,
 ) -> Observation:
     """Blur, resample, add noise, detect and score one scene at one GSD.
-    `phase_px`: (rows, columns) of fine pixels cropped before resampling."""
+    `phase_px`: (rows, columns) of fine pixels cropped before resampling.
+    `background`: (b, ny, nx) radiance on the scene's fine grid added to the
+    lamps' (night sky, moonlit ground). `false_alarms_per_km2`: detect at
+    that fixed false-alarm rate with each pixel's noise variance from the
+    sensor model (`detect_lamps`), else with the MAD and relative
+    thresholds. `detection_band`: the band detected on (default: the mean of
+    the bands). Saturation and detection limit: scalars or one per band."""
     oy, ox = phase_px
     g = scene.grid
-    fine = scene.radiance[:, oy:, ox:]
+    fine = scene.radiance if background is None else scene.radiance + background
+    fine = fine[:, oy:, ox:]
     shifted = Grid(
         g.x0_m + ox * g.dx_m, g.y0_m + oy * g.dx_m, g.nx - ox, g.ny - oy, g.dx_m
     )
@@ -81,11 +100,31 @@ def observe(
         noise=noise,
         bit_depth=bit_depth,
         saturation_w_m2_sr_nm=saturation_w_m2_sr_nm,
+        detection_limit_w_m2_sr_nm=detection_limit_w_m2_sr_nm,
     )
     grid = gsd_grid(shifted, gsd_m)
-    det = detect_lamps(img.mean(axis=0), grid)
+    if detection_band is None:
+        pan, pick = img.mean(axis=0), None
+    else:
+        if detection_band not in scene.band_names:
+            raise ValueError(
+                f"observe: detection_band {detection_band!r} is not one of "
+                f"{list(scene.band_names)}."
+            )
+        pick = scene.band_names.index(detection_band)
+        pan = img[pick]
+    cfar = {}
+    if false_alarms_per_km2 is not None:
+        var = noise_variance(
+            img, bands, gsd_m, bit_depth=bit_depth,
+            detection_limit_w_m2_sr_nm=detection_limit_w_m2_sr_nm,
+            saturation_w_m2_sr_nm=saturation_w_m2_sr_nm,
+        )  # fmt: skip
+        var = var.mean(axis=0) / var.shape[0] if pick is None else var[pick]
+        cfar = {"variance": var, "false_alarms_per_km2": false_alarms_per_km2}
+    det = detect_lamps(pan, grid, **cfar)
     score = match(det.xy_m, true_targets(scene), match_radius_m(gsd_m))
-    return Observation(float(gsd_m), img, clean, grid, det, score, (oy, ox))
+    return Observation(float(gsd_m), img, clean, grid, det, score, (oy, ox), pan)
 
 
 def phases(scene: SceneImage, gsd_m: float, n: int, seed: int) -> list[tuple[int, int]]:
@@ -107,7 +146,7 @@ def cross_section(
     relative to the lamp."""
     x, y = scene.lamps.x_m[lamp], scene.lamps.y_m[lamp]
     j, i = obs.grid.pixel_of(x, y)
-    pan = obs.image.mean(axis=0)
+    pan = obs.image.mean(axis=0) if obs.detected is None else obs.detected
     dog = _dog(pan, obs.gsd_m)
     if axis == "along":
         pos, rad, resp = obs.grid.x_m - x, pan[j, :], dog[j, :]

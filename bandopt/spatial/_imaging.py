@@ -31,7 +31,9 @@ from ..sensor import (
     SensorParams,
     add_photon_noise,
     dequantise,
+    noise_electrons,
     quantise,
+    radiance_step,
     responsivity,
 )
 from ..spectra import GRID_1NM
@@ -136,8 +138,8 @@ def sensor_image(
     wavelength_nm: np.ndarray | None = None,
     params=None,
     bit_depth: int | None = 14,
-    detection_limit_w_m2_sr_nm: float = 0.0,
-    saturation_w_m2_sr_nm: float = 1e-3,
+    detection_limit_w_m2_sr_nm=0.0,
+    saturation_w_m2_sr_nm=1e-3,
     noise: bool = True,
 ) -> np.ndarray:
     """Add photon noise and quantisation to a (b, ny, nx) band radiance image
@@ -147,7 +149,8 @@ def sensor_image(
     Table 2.3 with the integration time of a pixel at this GSD from 600 km).
     Electrons = radiance x flat-spectrum responsivity per band; Gaussian
     photon noise from `jax.random.PRNGKey(seed)`; quantisation with
-    `bit_depth` bits between the detection limit and saturation (None: off).
+    `bit_depth` bits between the detection limit and saturation (scalars or
+    one per band; None: off).
     """
     wl = np.asarray(GRID_1NM if wavelength_nm is None else wavelength_nm, float)
     params = params or SensorParams.for_gsd(gsd_m)
@@ -161,13 +164,53 @@ def sensor_image(
         noisy = add_photon_noise(jax.random.PRNGKey(seed), jnp.asarray(e), params)
         out = np.asarray(noisy) / resp[:, None, None]
     if bit_depth is not None:
-        dn = quantise(
-            jnp.asarray(out),
-            detection_limit_w_m2_sr_nm,
-            saturation_w_m2_sr_nm,
-            bit_depth,
-        )
-        out = np.asarray(
-            dequantise(dn, detection_limit_w_m2_sr_nm, saturation_w_m2_sr_nm, bit_depth)
-        )
+        lo = _band_column(detection_limit_w_m2_sr_nm, out.shape[0])
+        hi = _band_column(saturation_w_m2_sr_nm, out.shape[0])
+        dn = quantise(jnp.asarray(out), lo, hi, bit_depth)
+        out = np.asarray(dequantise(dn, lo, hi, bit_depth))
     return out
+
+
+def _band_column(value, n: int) -> np.ndarray:
+    """A scalar or per-band value as an (n, 1, 1) column."""
+    v = np.broadcast_to(np.asarray(value, float), (n,))
+    return v[:, None, None]
+
+
+def noise_variance(
+    image: np.ndarray,
+    bands,
+    gsd_m: float,
+    *,
+    wavelength_nm: np.ndarray | None = None,
+    params=None,
+    bit_depth: int | None = 14,
+    detection_limit_w_m2_sr_nm=0.0,
+    saturation_w_m2_sr_nm=1e-3,
+) -> np.ndarray:
+    """Per-pixel noise variance of a (b, ny, nx) band radiance image as
+    `sensor_image` records it: the photon model at the radiance the pixel
+    holds (`bandopt.sensor.noise_electrons`: shot noise, dark current, read
+    noise and the quantisation step), in radiance². What a detector that
+    knows its sensor can compute from its own image.
+    [(W m⁻² sr⁻¹ nm⁻¹)²]"""
+    wl = np.asarray(GRID_1NM if wavelength_nm is None else wavelength_nm, float)
+    params = params or SensorParams.for_gsd(gsd_m)
+    resp = np.asarray(
+        responsivity(bands.response(jnp.asarray(wl)), jnp.asarray(wl), params)
+    )[:, None, None]
+    n = resp.shape[0]
+    step = (
+        0.0
+        if bit_depth is None
+        else np.asarray(
+            radiance_step(
+                _band_column(detection_limit_w_m2_sr_nm, n),
+                _band_column(saturation_w_m2_sr_nm, n),
+                bit_depth,
+            )
+        )
+    )
+    e = np.asarray(noise_electrons(np.asarray(image, float) * resp, params,
+                                   electrons_per_dn=step * resp))  # fmt: skip
+    return (e / resp) ** 2

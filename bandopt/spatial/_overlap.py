@@ -43,7 +43,9 @@ class OverlapScore:
     - `gsd_m`, `n_lit` (lit pixels), `mixed_fraction` (of lit pixels),
       `mean_minority_share` (mean share of non-dominant types) [1],
     - `macro_f1`, `accuracy` over lit pixels; `f1_pure`, `f1_mixed` (macro F1
-      on pure and mixed pixels, NaN when there are none); `f1_per_class`.
+      on pure and mixed pixels, NaN when there are none); `f1_per_class`,
+      `n_per_class` (lit pixels whose dominant type is the class: the F1's
+      support) and `n_predicted_per_class` (pixels called that class).
     """
 
     gsd_m: float
@@ -55,6 +57,8 @@ class OverlapScore:
     f1_pure: float
     f1_mixed: float
     f1_per_class: dict
+    n_per_class: dict = dataclasses.field(default_factory=dict)
+    n_predicted_per_class: dict = dataclasses.field(default_factory=dict)
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -146,4 +150,8 @@ def lamp_type_f1_when_overlapping(
         f1_pure=_macro_f1(truth[~mixed], pred[~mixed]),
         f1_mixed=_macro_f1(truth[mixed], pred[mixed]),
         f1_per_class={lab: float(v) for lab, v in zip(labels, per_class, strict=True)},
+        n_per_class={lab: int(np.sum(truth == lab)) for lab in labels},
+        n_predicted_per_class={
+            str(lab): int(np.sum(pred == lab)) for lab in sorted(set(pred.tolist()))
+        },
     )

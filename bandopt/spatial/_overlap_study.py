@@ -28,12 +28,13 @@ OVERLAP_ATMOSPHERE = ("midlatitude_summer", "urban", 23.0)
 
 
 def overlap_bands(results: Path):
-    """The classification bands of `results`/recommendation.json, else
-    SDGSAT-1; with a note saying which."""
-    bands = recommended_band_set("classification", results_dir=results)
+    """The recommended design (the "spectral" bands of
+    `results`/recommendation.json, the bands every other study judges),
+    else SDGSAT-1; with a note saying which."""
+    bands = recommended_band_set("spectral", results_dir=results)
     if bands is not None:
-        return bands, "results/recommendation.json classification"
-    return reference_sensor("sdgsat-1"), "sdgsat-1 (no classification bands found)"
+        return bands, "results/recommendation.json spectral (the recommended design)"
+    return reference_sensor("sdgsat-1"), "sdgsat-1 (no recommended bands found)"
 
 
 def run_overlap_study(
@@ -77,9 +78,12 @@ def run_overlap_study(
         )
         + "\n"
     )
+    per_class = ("f1_per_class", "n_per_class", "n_predicted_per_class")
     flat = [
-        {k: v for k, v in r.items() if k != "f1_per_class"}
+        {k: v for k, v in r.items() if k not in per_class}
         | {f"f1_{c}": f for c, f in r["f1_per_class"].items()}
+        | {f"n_{c}": n for c, n in r["n_per_class"].items()}
+        | {f"n_called_{c}": n for c, n in r["n_predicted_per_class"].items()}
         for r in rows
     ]
     pd.DataFrame(flat).to_csv(out / "overlap.csv", index=False)

@@ -30,9 +30,11 @@ import numpy as np
 
 from ..datasets import atmosphere as atm
 from ..provenance import write_manifest
-from ..results import update_recommendation
+from ..results import recommended_band_set, update_recommendation
 from ..sensor import reference_sensor
 from ..strict_json import strict_dumps
+from ._background import background_image
+from ._detect import FALSE_ALARMS_PER_KM2
 from ._imaging import GSDS_M, block_mean
 from ._layout import arrangement, load_layout
 from ._render import render, resolve_flux
@@ -48,8 +50,17 @@ class GsdStudy:
     `n_phases` grid phases each; rows at every `spacings_m` x `heights_m`
     [m]; `arrangements` and distribution `patterns` at `base_spacing_m`,
     `base_height_m` [m]; `lamp` spectrum lit for `lighting_class`; `bands`
-    a reference sensor; "needed" is the coarsest GSD with phase-mean F1 >=
+    "recommended" (the "spectral" bands of results/recommendation.json) or a
+    reference sensor; "needed" is the coarsest GSD with phase-mean F1 >=
     `f1_needed`; `atmosphere` a 6S (profile, aerosol, visibility) or None.
+
+    The sensor: with `radiometry` (a results folder of `make radiometry`),
+    each band's detection limit and saturation and the recommended linear
+    bit depth from it (the limits of `bands`' own rows), else 14 bits
+    between 0 and 1e-3. The ground: night-sky background plus, with `moon`
+    (a named phase), moonlit ground (`background_image`). The detector: at
+    `false_alarms_per_km2` (None: the MAD and relative thresholds), on band
+    `detection_band` when the set has it (else the mean of the bands).
     """
 
     dx_m: float = 0.25
@@ -77,11 +88,15 @@ class GsdStudy:
     base_height_m: float = 8.0
     lamp: str = "nist_traditional_hps"
     lighting_class: str = "M3"
-    bands: str = "viirs-dnb"
+    bands: str = "recommended"
     n_phases: int = 3
     seed: int = 0
     f1_needed: float = F1_NEEDED
     atmosphere: tuple | None = ("midlatitude_summer", "urban", 23.0)
+    radiometry: str | None = "results/radiometry"
+    moon: str | None = None
+    false_alarms_per_km2: float | None = FALSE_ALARMS_PER_KM2
+    detection_band: str | None = "PAN"
 
     @classmethod
     def quick(cls, **kw) -> "GsdStudy":
@@ -109,6 +124,54 @@ def study_atmosphere(study: GsdStudy) -> tuple[tuple | None, str]:
         "diffuse for k = 0.1 x the tile's mean (scene.DEFAULT_NEIGHBOURHOOD, "
         "lit street in a dark district; bandopt.spatial.render)"
     )
+
+
+def study_bands(study: GsdStudy):
+    """The study's band set: "recommended" is the "spectral" band set of
+    results/recommendation.json, any other name a reference sensor."""
+    if study.bands == "recommended":
+        bands = recommended_band_set("spectral")
+        if bands is None:
+            raise ValueError(
+                "GsdStudy.bands='recommended': results/recommendation.json has no "
+                "'spectral' band set; run `make run` or name a reference sensor."
+            )
+        return bands
+    return reference_sensor(study.bands)
+
+
+def study_sensor(study: GsdStudy, band_names) -> dict:
+    """`observe`'s sensor keywords: bit depth, per-band detection limit and
+    saturation from `study.radiometry` (the rows of this band set: "ours"
+    for the recommended bands), else 14 bits between 0 and 1e-3."""
+    if study.radiometry is None:
+        return {"bit_depth": 14, "saturation_w_m2_sr_nm": 1e-3,
+                "detection_limit_w_m2_sr_nm": 0.0}  # fmt: skip
+    folder = Path(study.radiometry)
+    label = "ours" if study.bands == "recommended" else study.bands
+    with open(folder / "limits.csv", newline="") as fh:
+        rows = {r["band"]: r for r in csv.DictReader(fh) if r["band_set"] == label}
+    missing = [b for b in band_names if b not in rows]
+    if missing:
+        raise ValueError(
+            f"{folder / 'limits.csv'}: no rows of band set {label!r} for bands "
+            f"{missing}; re-run `make radiometry`."
+        )
+    summary = json.loads((folder / "summary.json").read_text())
+    bits = (summary.get("bit_depth") or {}).get("recommended_linear_bits")
+    if bits is None:
+        raise ValueError(
+            f"{folder / 'summary.json'}: no bit_depth.recommended_linear_bits."
+        )
+    return {
+        "bit_depth": int(bits),
+        "detection_limit_w_m2_sr_nm": np.array(
+            [float(rows[b]["detection_limit_w_m2_sr_nm"]) for b in band_names]
+        ),
+        "saturation_w_m2_sr_nm": np.array(
+            [float(rows[b]["saturation_w_m2_sr_nm"]) for b in band_names]
+        ),
+    }
 
 
 def study_scenes(study: GsdStudy) -> list[tuple]:
@@ -154,18 +217,36 @@ def study_scenes(study: GsdStudy) -> list[tuple]:
     return out
 
 
-ASSUMPTIONS = (
-    "nadir view, flat Lambertian ground, single bounce, point luminaires",
-    "adjacency: T_dir L(x) + k T_dif <L>_tile with the default "
-    "neighbourhood (lit street in a dark district, k = 0.1; "
-    "bandopt.spatial.render); lamp-light path radiance neglected",
-    "PSF Gaussian with FWHM = 1 GSD, box pixel, photon noise (Table 2.3 "
-    "sensor, integration time from GSD at 600 km), 14-bit, saturation 1e-3",
-    "DoG thresholds fixed in advance, identical for every GSD and scene",
-    "match radius 5 m + GSD/√2 (pool offset plus half a pixel "
-    "diagonal); twin poles are one target",
-)
-"""What the rendering and detection assume (summary.json, summary.md)."""
+def assumptions(study: GsdStudy, sensor: dict) -> list[str]:
+    """What the rendering and detection assume (summary.json, summary.md)."""
+    if study.radiometry is None:
+        quant = "14-bit, 0 to 1e-3 W m-2 sr-1 nm-1"
+    else:
+        quant = (
+            f"{sensor['bit_depth']}-bit between each band's detection limit and "
+            f"saturation from {study.radiometry} (the recommended radiometry)"
+        )
+    detector = (
+        "DoG at a fixed false-alarm rate of "
+        f"{study.false_alarms_per_km2:g} per km² (threshold u σ_D per pixel from the "
+        "sensor's noise model, u = Φ⁻¹(1 - r GSD²/10⁶))"
+        if study.false_alarms_per_km2 is not None
+        else "DoG thresholds fixed in advance, identical for every GSD and scene"
+    )
+    return [
+        "nadir view, flat Lambertian ground, single bounce, point luminaires",
+        "adjacency: T_dir L(x) + k T_dif <L>_tile with the default "
+        "neighbourhood (lit street in a dark district, k = 0.1; "
+        "bandopt.spatial.render); lamp-light path radiance neglected",
+        "PSF Gaussian with FWHM = 1 GSD, box pixel, photon noise (Table 2.3 "
+        f"sensor, integration time from GSD at 600 km), {quant}",
+        "ground: night-sky background"
+        + (f" and moonlit ground ({study.moon} Moon)" if study.moon else ", no Moon"),
+        detector
+        + (f", on band {study.detection_band}" if study.detection_band else ""),
+        "match radius 5 m + GSD/√2 (pool offset plus half a pixel "
+        "diagonal); twin poles are one target",
+    ]
 
 
 def run_gsd_study(study: GsdStudy, out: Path) -> dict:
@@ -176,7 +257,13 @@ def run_gsd_study(study: GsdStudy, out: Path) -> dict:
     t0 = time.time()
     out.mkdir(parents=True, exist_ok=True)
     (out / "images").mkdir(exist_ok=True)
-    bands = reference_sensor(study.bands)
+    bands = study_bands(study)
+    sensor = study_sensor(study, bands.names)
+    detect = {
+        "false_alarms_per_km2": study.false_alarms_per_km2,
+        "detection_band": study.detection_band
+        if study.detection_band in bands.names else None,
+    }  # fmt: skip
     atmosphere, atm_note = study_atmosphere(study)
     todo = study_scenes(study)
     # the single lamp gets the flux of the single-sided row at the base geometry
@@ -204,6 +291,11 @@ def run_gsd_study(study: GsdStudy, out: Path) -> dict:
             n_phases=study.n_phases,
             seed=study.seed,
             keep_observations=shown,
+            background=background_image(
+                scene, bands, moon=study.moon, atmosphere=atmosphere
+            ),
+            **sensor,
+            **detect,
         )
         flux = {"lamp_flux_lm": float(np.nanmax(scene.lamps.flux_lm))}
         for sc in sweep.scores:
@@ -227,7 +319,8 @@ def run_gsd_study(study: GsdStudy, out: Path) -> dict:
         "gsd_needed_m": needed,
         "seconds": round(time.time() - t0, 1),
         "thesis": "about 10 m in most cases (De Meester 2019, section 4.3)",
-        "assumptions": list(ASSUMPTIONS),
+        "why": WHY,
+        "assumptions": assumptions(study, sensor),
         "overlapping_lamp_types": "see overlap.json / overlap.png "
         "(python -m experiments.spatial_overlap, run by `make spatial`)",
     }
@@ -259,7 +352,13 @@ def recommend_spatial(summary: dict, study: GsdStudy) -> None:
             "median_gsd_needed_m": statistics.median(found) if found else None,
             "scenes_never_detected": [k for k, v in per.items() if v is None],
             "rule": "coarsest GSD with single-lamp detection F1 >= "
-            f"{study.f1_needed} (DoG, threshold fixed in advance)",
+            f"{study.f1_needed} ("
+            + (
+                f"DoG at {study.false_alarms_per_km2:g} false alarms per km²"
+                if study.false_alarms_per_km2 is not None
+                else "DoG, threshold fixed in advance"
+            )
+            + ")",
             "thesis": summary["thesis"],
         },
     )
