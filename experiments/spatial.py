@@ -1,6 +1,7 @@
 """Spatial sampling: the GSD needed to detect single street lamps (thesis 4.3).
 
 Run:   python -m experiments.spatial [--quick] [--out results/spatial]
+           [--moon PHASE]
        python -m experiments.spatial --recommend-only
 
 The study, its scenes and outputs are `bandopt.spatial.run_gsd_study`; it
@@ -22,6 +23,11 @@ def cli(argv=None) -> int:
     p.add_argument("--out", default="results/spatial")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument(
+        "--moon", default=None, metavar="PHASE",
+        help="moonlit ground under every scene (a named phase, e.g. full); "
+        "default: no Moon",
+    )  # fmt: skip
+    p.add_argument(
         "--recommend-only",
         action="store_true",
         help="only (re)write key 'spatial' of results/recommendation.json from "
@@ -34,7 +40,8 @@ def cli(argv=None) -> int:
     if args.recommend_only:
         return recommend_from_summary(Path(args.out))
     bandopt.configure()
-    study = GsdStudy.quick(seed=args.seed) if args.quick else GsdStudy(seed=args.seed)
+    kw = {"seed": args.seed, "moon": args.moon}
+    study = GsdStudy.quick(**kw) if args.quick else GsdStudy(**kw)
     s = run_gsd_study(study, Path(args.out))
     for name, v in s["gsd_needed_m"].items():
         print(f"{name:28s} needed GSD: {v['coarsest_gsd_m']}  F1 {v['f1_by_gsd']}")
