@@ -126,6 +126,12 @@ def study_atmosphere(study: GsdStudy) -> tuple[tuple | None, str]:
     )
 
 
+DEFAULT_OUT = Path("results/spatial")
+"""Where the shipped study writes: only a run into it writes key "spatial" of
+results/recommendation.json (a variant such as `--moon full --out ...`
+keeps its results in its own folder)."""
+
+
 def study_bands(study: GsdStudy):
     """The study's band set: "recommended" is the "spectral" band set of
     results/recommendation.json, any other name a reference sensor."""
@@ -250,8 +256,9 @@ def assumptions(study: GsdStudy, sensor: dict) -> list[str]:
 
 
 def run_gsd_study(study: GsdStudy, out: Path) -> dict:
-    """Render every scene, sweep the GSDs, write the outputs into `out` and
-    key "spatial" of results/recommendation.json. Returns the summary."""
+    """Render every scene, sweep the GSDs, write the outputs into `out` and,
+    when `out` is `DEFAULT_OUT`, key "spatial" of results/recommendation.json.
+    Returns the summary."""
     from tqdm import tqdm  # progress bar only: start-up time
 
     t0 = time.time()
@@ -327,7 +334,8 @@ def run_gsd_study(study: GsdStudy, out: Path) -> dict:
     (out / "summary.json").write_text(strict_dumps(summary, indent=2) + "\n")
     _markdown(out, summary, study)
     write_manifest(out, seed=study.seed, config=dataclasses.asdict(study))
-    recommend_spatial(summary, study)
+    if out.resolve() == DEFAULT_OUT.resolve():  # a variant never replaces it
+        recommend_spatial(summary, study)
     return summary
 
 
