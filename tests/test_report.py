@@ -562,3 +562,26 @@ def test_every_results_folder_is_shown_or_listed_as_not_part_of_it(built):
     for name in folders:
         assert (name in shown) != (f"<code>{name}/</code>" in note), name
     assert f"({len([n for n in folders if n not in shown])} folders;" in note
+
+
+def test_spatial_section_adds_the_full_moon_run_when_there_is_one(tmp_path):
+    """The GSD table under a full Moon follows the moonless one, with its own
+    conditions line (naming the Moon); without that run the section says how
+    to make it."""
+    for rel in ("spatial/summary.json",):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(RESULTS / rel, tmp_path / rel)
+
+    def section():
+        text = build_report(tmp_path, tmp_path / "out", strict=False).path.read_text()
+        start = text.index('<section id="spatial">')
+        return text[start : text.index("</section>", start)]
+
+    assert "--moon full" in section()
+    summary = json.loads((RESULTS / "spatial/summary.json").read_text())
+    summary["config"]["moon"] = "full"
+    (tmp_path / "spatial/full_moon").mkdir()
+    (tmp_path / "spatial/full_moon/summary.json").write_text(json.dumps(summary))
+    got = section()
+    assert "The same scenes under a full Moon" in got
+    assert "Moon full" in got and "--moon full" not in got

@@ -104,7 +104,7 @@ def spatial(src: Sources, rel: str = "spatial/summary.json") -> str:
         + src.text(rel, "/config/lighting_class"),
         "bands " + src.text(rel, "/config/bands"),
         esc(_atmospheres([atm]) if atm else "no atmosphere"),
-        "no Moon",
+        esc(_moons([cfg.get("moon")])),
         src.num(rel, "/config/n_phases") + " sub-pixel phases per GSD",
         "sensor and detector: " + esc("; ".join(src.get(rel, "/assumptions")[2:4])),
     ]

@@ -83,10 +83,12 @@ def radiometry(ctx: Ctx) -> str:
     return "".join(out)
 
 
-@needs("spatial")
-def spatial(ctx: Ctx) -> str:
-    src = ctx.src
-    S = "spatial/summary.json"
+MOON_SPATIAL = "spatial/full_moon/summary.json"
+"""The GSD study under a full Moon (`python -m experiments.spatial --moon full
+--out results/spatial/full_moon`)."""
+
+
+def _gsd_table(src, S: str, caption: str) -> str:
     summ = src.load(S)
     gsds = [str(int(g)) if float(g).is_integer() else str(g)
             for g in summ["config"]["gsds_m"]]
@@ -100,14 +102,31 @@ def spatial(ctx: Ctx) -> str:
             + [src.num(S, p + "/coarsest_gsd_m") if v["coarsest_gsd_m"] is not None
                else "none"]
         )
+    return table(["scene"] + [f"F1 at {g} m" for g in gsds] + ["coarsest GSD [m]"],
+                 rows, caption=caption)
+
+
+@needs("spatial")
+def spatial(ctx: Ctx) -> str:
+    src = ctx.src
+    S = "spatial/summary.json"
+    summ = src.load(S)
     out = [
         _conditions.spatial(src),
         f"<p>Thesis: {src.text(S, '/thesis')}. Assumptions: "
         + esc("; ".join(summ.get("assumptions", []))) + ".</p>",
-        table(["scene"] + [f"F1 at {g} m" for g in gsds] + ["coarsest GSD [m]"],
-              rows, caption="Single-lamp detection F1 vs GSD"),
+        _gsd_table(src, S, "Single-lamp detection F1 vs GSD"),
         (f"<p>Why F1 is not monotonic in GSD: {src.text(S, '/why')}</p>"
          if "why" in summ else ""),
+        (_conditions.spatial(src, MOON_SPATIAL)
+         + _gsd_table(src, MOON_SPATIAL, "The same scenes under a full Moon "
+                      "(moonlit ground adds light and noise; the detector keeps "
+                      "its false-alarm rate)")
+         if src.exists(MOON_SPATIAL) else
+         missing_box("the GSD study under a full Moon "
+                     "(<code>results/spatial/full_moon/summary.json</code>)",
+                     "python -m experiments.spatial --moon full --out "
+                     "results/spatial/full_moon")),
         src.image("spatial/f1_by_gsd.png", "Detection F1 vs GSD"),
     ]
     for scene in ("single-sided", "staggered"):
