@@ -155,3 +155,29 @@ def test_the_gsd_study_senses_with_the_recommended_radiometry(tmp_path):
     shutil.copytree("results/radiometry", folder)
     with pytest.raises(ValueError, match="no rows of band set 'ours' for bands"):
         study_sensor(GsdStudy(radiometry=str(folder)), ("B1", "NOPE"))
+
+
+def test_a_told_background_keeps_moonlit_surface_edges_from_being_lamps():
+    """A scene with no lamp light under a full Moon: the edges between road,
+    sidewalk and verge are structure, not noise, so the fixed-rate detector
+    finds them unless it subtracts the lamp-free ground it is told; then it
+    finds nothing, as on the night sky alone."""
+    import dataclasses
+
+    from bandopt.spatial import observe
+
+    lay = arrangement(
+        "single", spacing_m=30.0, mounting_height_m=8.0, length_m=200.0,
+        width_m=100.0, lamps=("nist_traditional_hps",), flux_lm=0.0,
+    )  # fmt: skip
+    lay = dataclasses.replace(
+        lay, lamps=tuple(dataclasses.replace(p, flux_lm=1e-9) for p in lay.lamps)
+    )
+    scene = render(lay, BANDS, dx_m=1.0)
+    bg = background_image(scene, BANDS, moon="full")
+    kw = dict(background=bg, false_alarms_per_km2=0.1, detection_band="PAN",
+              bit_depth=None, seed=2)  # fmt: skip
+    blind = observe(scene, BANDS, 2.0, **kw)
+    told = observe(scene, BANDS, 2.0, known_background=True, **kw)
+    assert len(blind.detections.response) >= 5
+    assert len(told.detections.response) <= 1

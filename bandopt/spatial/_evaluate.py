@@ -74,6 +74,7 @@ def observe(
     background: np.ndarray | None = None,
     false_alarms_per_km2: float | None = None,
     detection_band: str | None = None,
+    known_background: bool = False,
 ) -> Observation:
     """Blur, resample, add noise, detect and score one scene at one GSD.
     `phase_px`: (rows, columns) of fine pixels cropped before resampling.
@@ -82,7 +83,12 @@ def observe(
     that fixed false-alarm rate with each pixel's noise variance from the
     sensor model (`detect_lamps`), else with the MAD and relative
     thresholds. `detection_band`: the band detected on (default: the mean of
-    the bands). Saturation and detection limit: scalars or one per band."""
+    the bands). Saturation and detection limit: scalars or one per band.
+    `known_background`: the detector subtracts the lamp-free ground it is
+    told (`background` seen at the GSD without noise: night sky and moonlit
+    surfaces, as a lunar model and daytime reflectance give them) before
+    the DoG, so the edges between surfaces are not taken for lamps; the
+    noise it judges against still includes the background's."""
     oy, ox = phase_px
     g = scene.grid
     fine = scene.radiance if background is None else scene.radiance + background
@@ -103,8 +109,12 @@ def observe(
         detection_limit_w_m2_sr_nm=detection_limit_w_m2_sr_nm,
     )
     grid = gsd_grid(shifted, gsd_m)
+    told = 0.0
+    if known_background and background is not None:
+        told = resample_to_gsd(background[:, oy:, ox:], g.dx_m, gsd_m, sigma_m=sigma)
+    seen = img - told
     if detection_band is None:
-        pan, pick = img.mean(axis=0), None
+        pan, pick = seen.mean(axis=0), None
     else:
         if detection_band not in scene.band_names:
             raise ValueError(
@@ -112,7 +122,7 @@ def observe(
                 f"{list(scene.band_names)}."
             )
         pick = scene.band_names.index(detection_band)
-        pan = img[pick]
+        pan = seen[pick]
     cfar = {}
     if false_alarms_per_km2 is not None:
         var = noise_variance(

@@ -60,7 +60,10 @@ class GsdStudy:
     between 0 and 1e-3. The ground: night-sky background plus, with `moon`
     (a named phase), moonlit ground (`background_image`). The detector: at
     `false_alarms_per_km2` (None: the MAD and relative thresholds), on band
-    `detection_band` when the set has it (else the mean of the bands).
+    `detection_band` when the set has it (else the mean of the bands), with
+    the lamp-free ground subtracted when `known_background` (a lunar model
+    and daytime reflectance give it; else the edges between moonlit surfaces
+    are found as lamps).
     """
 
     dx_m: float = 0.25
@@ -97,6 +100,7 @@ class GsdStudy:
     moon: str | None = None
     false_alarms_per_km2: float | None = FALSE_ALARMS_PER_KM2
     detection_band: str | None = "PAN"
+    known_background: bool = True
 
     @classmethod
     def quick(cls, **kw) -> "GsdStudy":
@@ -249,7 +253,9 @@ def assumptions(study: GsdStudy, sensor: dict) -> list[str]:
         "ground: night-sky background"
         + (f" and moonlit ground ({study.moon} Moon)" if study.moon else ", no Moon"),
         detector
-        + (f", on band {study.detection_band}" if study.detection_band else ""),
+        + (f", on band {study.detection_band}" if study.detection_band else "")
+        + (", the modelled lamp-free ground subtracted first"
+           if study.known_background else ""),
         "match radius 5 m + GSD/√2 (pool offset plus half a pixel "
         "diagonal); twin poles are one target",
     ]
@@ -270,6 +276,7 @@ def run_gsd_study(study: GsdStudy, out: Path) -> dict:
         "false_alarms_per_km2": study.false_alarms_per_km2,
         "detection_band": study.detection_band
         if study.detection_band in bands.names else None,
+        "known_background": study.known_background,
     }  # fmt: skip
     atmosphere, atm_note = study_atmosphere(study)
     todo = study_scenes(study)
