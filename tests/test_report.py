@@ -585,3 +585,27 @@ def test_spatial_section_adds_the_full_moon_run_when_there_is_one(tmp_path):
     got = section()
     assert "The same scenes under a full Moon" in got
     assert "Moon full" in got and "--moon full" not in got
+
+
+def test_verdict_states_the_gsd_from_the_spatial_study(tmp_path):
+    """The verdict gives the GSD study's median coarsest GSD, its rule and the
+    scenes where it fails, from key "spatial" of recommendation.json; without
+    that key it says to run the study."""
+    rec = json.loads((RESULTS / "recommendation.json").read_text())
+    sp = rec["spatial"]
+
+    def verdict():
+        text = build_report(tmp_path, tmp_path / "out", strict=False).path.read_text()
+        start = text.index('<section id="verdict">')
+        return text[start : text.index("</section>", start)]
+
+    (tmp_path / "recommendation.json").write_text(json.dumps(rec))
+    got = verdict()
+    assert "Ground sample distance: median" in got
+    median = sp["median_gsd_needed_m"]
+    assert median is None or f'data-value="{median}"' in got
+    for scene in sp["scenes_never_detected"]:
+        assert scene in got
+    del rec["spatial"]
+    (tmp_path / "recommendation.json").write_text(json.dumps(rec))
+    assert "make spatial" in verdict()

@@ -344,7 +344,32 @@ def verdict(ctx: Ctx) -> str:
         + _radiometry_table(src)
         + _changes(src)
         + _instrument(src)
-        + "<p>Not judged yet: the ground sample distance (a detector at a fixed "
-        "false-alarm rate per km² is not built; the spatial section's detection "
-        "uses a fixed threshold).</p>"
+        + _gsd(src)
     )
+
+
+def _gsd(src: Sources) -> str:
+    """The ground sample distance the GSD study finds (key "spatial" of
+    results/recommendation.json), with its rule and the scenes it fails."""
+    rel = "recommendation.json"
+    if not src.exists(rel) or "spatial" not in src.load(rel):
+        return missing_box(
+            "the GSD study's result (key <code>spatial</code> of "
+            "<code>results/recommendation.json</code>)",
+            "run <code>make spatial</code>",
+        )
+    sp = src.get(rel, "/spatial")
+    never = sp.get("scenes_never_detected") or []
+    median = (
+        "none" if sp.get("median_gsd_needed_m") is None
+        else src.num(rel, "/spatial/median_gsd_needed_m") + " m"
+    )  # fmt: skip
+    return (
+        "<p>Ground sample distance: median over the street-row and arrangement "
+        f"scenes of the coarsest GSD at which single lamps are found, {median} "
+        "(rule: " + src.text(rel, "/spatial/rule") + "); "
+        + (f"never reached in {len(never)} scenes ({esc(', '.join(never))}); "
+           if never else "reached in every scene; ")
+        + "details, the full-Moon run and why fine GSDs score lower in the "
+        "spatial section.</p>"
+    )  # fmt: skip
