@@ -609,3 +609,24 @@ def test_verdict_states_the_gsd_from_the_spatial_study(tmp_path):
     del rec["spatial"]
     (tmp_path / "recommendation.json").write_text(json.dumps(rec))
     assert "make spatial" in verdict()
+
+
+def test_design_labels_read_as_plain_words_on_the_page(built):
+    """A search design shows as "3 bands + pan (α = 0.5)", its label kept as
+    the hover title; no bare internal label ("n3+pan a=0.5") is left in the
+    page's visible text, and α is explained where designs are named."""
+    import html
+    import re
+
+    from bandopt.report._html import design_name
+
+    assert design_name("n3+pan a=0.5") == (
+        '<span title="n3+pan a=0.5">3 bands + pan (α = 0.5)</span>'
+    )
+    assert "1 band + pan (α = 0)" in design_name("n1+pan a=0")
+    assert design_name("nightsat") == "nightsat"
+    res, _ = built
+    text = res.path.read_text()
+    visible = re.sub(r"<[^>]+>", " ", text)
+    assert not re.findall(r"n\d\+pan a=[0-9.]+", visible)
+    assert "α is the search's weight on lamp-type classification" in html.unescape(text)

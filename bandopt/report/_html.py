@@ -4,6 +4,7 @@ no external resources: the page is one file that opens anywhere."""
 import base64
 import html
 import io
+import re
 
 
 CSS = """
@@ -34,6 +35,30 @@ table{font-size:.8em}th,td{padding:.2em .35em}}
 
 def esc(text) -> str:
     return html.escape(str(text))
+
+
+_DESIGN = re.compile(r"^n(\d+)\+pan a=([0-9.]+)$")
+
+ALPHA_NOTE = (
+    "α is the search's weight on lamp-type classification against "
+    "estimation of LER, G and CCT (0: estimation only, 1: classification only)"
+)
+"""The legend of `design_name`'s α, for a section that shows design names."""
+
+
+def design_name(label: str) -> str:
+    """A search design's label in plain words, escaped: "n3+pan a=0.5" is
+    "3 bands + pan (α = 0.5)", "n6+pan a=0" "6 bands + pan (α = 0)"; any
+    other label (a reference sensor) as it is. The label itself is kept as
+    the hover title, for finding it in the result files."""
+    m = _DESIGN.match(str(label))
+    if m is None:
+        return esc(label)
+    n, a = int(m.group(1)), float(m.group(2))
+    word = "band" if n == 1 else "bands"
+    return (
+        f'<span title="{esc(label)}">{n} {word} + pan (α = {a:g})</span>'
+    )
 
 
 def table(header: list[str], rows: list[list[str]], *, caption: str = "",

@@ -5,7 +5,7 @@ stability and Pareto figures, all read from `results/search/`.
 
 from . import _conditions
 from ._experiments import METRICS, UNITS, Ctx, needs
-from ._html import esc, figure_png, table
+from ._html import ALPHA_NOTE, design_name, esc, figure_png, table
 from ._source import Sources, pointer
 
 
@@ -28,7 +28,7 @@ def comparison(ctx: Ctx) -> str:
         return cells
 
     rows.append([
-        f"<strong>{esc(ours)}</strong> (ours)",
+        f"<strong>{design_name(ours)}</strong> (ours)",
         src.num(C, pointer("designs", ours, "n_bands")) + " + pan",
         *mae_cells("designs", ours),
         src.num(C, pointer("designs", ours, "f1_mean"), digits=2),
@@ -54,7 +54,7 @@ def comparison(ctx: Ctx) -> str:
         f"lamp partitions ({src.text(C, '/estimator/note')}). Errors: mean &plusmn; "
         "SD over partitions of the class-balanced outer-test MAE. Reductions: "
         f"{src.text(C, '/reductions/note')} (recommended design vs the sensor, 95 % "
-        "CI in brackets).</p>",
+        f"CI in brackets). {esc(ALPHA_NOTE)}.</p>",
         table(
             ["sensor", "bands", "LER MAE [lm/W]", "G MAE", "CCT MAE [K]",
              "level-2 macro F1", "LER reduction", "G reduction", "CCT reduction"],
@@ -166,7 +166,7 @@ def search_figures(ctx: Ctx) -> str:
         for name in src.load(P)["candidates"]:
             p = pointer("candidates", name)
             rows.append([
-                esc(name), src.num(P, p + "/alpha", digits=2),
+                design_name(name), src.num(P, p + "/alpha", digits=2),
                 src.num(P, p + "/norm_mae_mean"),
                 src.num(P, p + "/f1_mean", digits=2),
                 src.num(P, p + "/snr_median", digits=2),

@@ -8,7 +8,7 @@ study's recommendation into a single table.
 """
 
 from ._experiments import METRICS, UNITS, Ctx
-from ._html import esc, table
+from ._html import design_name, esc, table
 from ._source import Sources, missing_box, pointer
 
 
@@ -83,7 +83,8 @@ def recommended_sensor(ctx: Ctx) -> str:
     R = "recommendation.json"
     spectral = rec["spectral"]
     parts.append(
-        "<p>Recommended design: <strong>" + src.text(R, "/spectral/set")
+        "<p>Recommended design: <strong>"
+        + src.text(R, "/spectral/set", shown=design_name)
         + "</strong>, judged with the " + esc(spectral.get("estimator", "?"))
         + ". Intervals in brackets: " + esc(spectral.get("intervals", ""))
         + "; tolerances: " + esc(spectral.get("tolerances", "")) + ".</p>"

@@ -13,7 +13,7 @@ experiment judges yet is listed as not judged, never left out.
 
 from . import _conditions
 from ._experiments import Ctx
-from ._html import esc, table
+from ._html import ALPHA_NOTE, design_name, esc, table
 from ._source import Sources, missing_box
 
 
@@ -214,7 +214,8 @@ def _judge_table(src: Sources) -> str:
         clean = src.num(JUDGE, f"/clean/{_ptr(b)}/level1_correct", digits=2)
         rows.append(
             [
-                esc(b) + (f" <strong>({esc(', '.join(mark))})</strong>" * bool(mark)),
+                design_name(b)
+                + (f" <strong>({esc(', '.join(mark))})</strong>" * bool(mark)),
                 src.num(JUDGE, f"/n_bands/{_ptr(b)}"),
                 src.num(JUDGE, base + "/J")
                 + (" ± " + src.num(JUDGE, base + "/J_sd", digits=2)
@@ -225,7 +226,7 @@ def _judge_table(src: Sources) -> str:
             ]
         )  # fmt: skip
     d = res["searched_minus_chosen"]["J"]
-    agree = (
+    agree = "The choice: " + design_name(chosen) + ". " + (
         "The search's pick is the judged choice."
         if res["agrees_with_search"]
         else "<strong>The judged choice is not the search's pick</strong>: the "
@@ -245,7 +246,7 @@ def _judge_table(src: Sources) -> str:
         + esc(res["loss"])
         + "; rule: "
         + esc(res["choice"]["rule"])
-        + ".</p>"
+        + f". {esc(ALPHA_NOTE)}.</p>"
         + table(
             [
                 "band set",

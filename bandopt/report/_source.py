@@ -170,12 +170,14 @@ class Sources:
             f"{self.num(rel, ptr + '/1', digits=digits, scale=scale)}]"
         )
 
-    def text(self, rel: str, ptr: str) -> str:
-        """A string field, escaped, linked to its file."""
+    def text(self, rel: str, ptr: str, *, shown=None) -> str:
+        """A string field, escaped, linked to its file; `shown(value)`: the
+        HTML to show for it instead (e.g. a plain name)."""
         value = self.get(rel, ptr)
+        label = html.escape(str(value)) if shown is None else shown(value)
         return (
             f'<a class="txt" href="{html.escape(self.href(rel))}" '
-            f'title="{html.escape(rel + " " + ptr)}">{html.escape(str(value))}</a>'
+            f'title="{html.escape(rel + " " + ptr)}">{label}</a>'
         )
 
     def link(self, rel: str, label: str | None = None) -> str:
