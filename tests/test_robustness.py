@@ -199,3 +199,26 @@ def test_experiment_writes_its_outputs(run, tmp_path):
     text = (tmp_path / "README.md").read_text()
     assert "| recommended | 30 % other lamp |" in text
     assert "nan" not in text.lower().replace("n/a", "")
+
+
+def test_committed_summary_pairs_our_bands_with_each_reference():
+    """`versus` in the committed summary: our bands minus each reference on
+    the same row, partition by partition, equal to the rows' own values; the
+    report's verdict shows them beside each reference."""
+    import json
+    from pathlib import Path
+
+    summary = json.loads(Path("results/robustness/summary.json").read_text())
+    by = {(r["band_set"], r["perturbation"]): r for r in summary["rows"]}
+    ours = summary["band_sets"][0]
+    assert summary["versus"], "no paired comparison with the references"
+    refs = set()
+    for v in summary["versus"]:
+        assert v["band_set"] == ours and v["reference"] != ours
+        refs.add(v["reference"])
+        a, b = by[(ours, v["perturbation"])], by[(v["reference"], v["perturbation"])]
+        for col in ("level1_correct", "LER", "CCT", "ECE"):
+            d = np.subtract(a[f"{col}_per_partition"], b[f"{col}_per_partition"])
+            assert v[f"{col}_diff"] == pytest.approx(d.mean())
+            assert v[f"{col}_diff_sd"] == pytest.approx(d.std(ddof=1))
+    assert refs == set(summary["band_sets"][1:])

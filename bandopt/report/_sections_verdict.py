@@ -70,6 +70,27 @@ def _clean_rows(rows: list[dict]) -> dict[str, int]:
     }
 
 
+def _versus(src: Sources, reference: str, perturbation: str, field: str) -> str:
+    """" (ours − it: Δ ± SD)": our bands minus `reference` on `field`, paired
+    by lamp partition (the suite's `versus`), or "" when the summary has no
+    such pair."""
+    versus = src.load(ROBUSTNESS).get("versus") or []
+    for i, v in enumerate(versus):
+        if v["reference"] == reference and v["perturbation"] == perturbation:
+            if f"{field}_diff" not in v:
+                return ""
+            sd = (
+                " ± " + src.num(ROBUSTNESS, f"/versus/{i}/{field}_diff_sd", digits=2)
+                if v.get(f"{field}_diff_sd") is not None else ""
+            )  # fmt: skip
+            return (
+                " <small>(ours − it: "
+                + src.num(ROBUSTNESS, f"/versus/{i}/{field}_diff", digits=2)
+                + sd + ")</small>"
+            )
+    return ""
+
+
 def _estimation_table(src: Sources) -> str:
     rows = src.load(ROBUSTNESS)["rows"]
     clean = _clean_rows(rows)
@@ -90,7 +111,10 @@ def _estimation_table(src: Sources) -> str:
             _verdict(_passes(value, target, rule)),
         ]
         for s in refs:
-            cells.append(src.num(ROBUSTNESS, f"/rows/{clean[s]}/{field}"))
+            cells.append(
+                src.num(ROBUSTNESS, f"/rows/{clean[s]}/{field}")
+                + _versus(src, s, "clean", field)
+            )
         out.append(cells)
     # the worst realistic perturbation of our bands
     realistic = [
@@ -116,8 +140,10 @@ def _estimation_table(src: Sources) -> str:
                 if r["band_set"] == s and r["perturbation"] == worst_name
             ]
             cells.append(
-                src.num(ROBUSTNESS, f"/rows/{same[0]}/level1_correct") if same else "-"
-            )
+                src.num(ROBUSTNESS, f"/rows/{same[0]}/level1_correct")
+                + _versus(src, s, worst_name, "level1_correct")
+                if same else "-"
+            )  # fmt: skip
         out.append(cells)
     ahead = []
     for field in ("LER", "G", "CCT"):

@@ -119,11 +119,27 @@ def reliability(recs) -> dict:
     }
 
 
+def _paired_columns(a_row: dict, b_row: dict) -> dict:
+    """`<col>_diff` and `<col>_diff_sd` of `a_row - b_row` for every `PAIRED`
+    column, partition by partition (mean and SD over partitions)."""
+    out = {}
+    for col in PAIRED:
+        a, b = a_row.get(col + "_per_partition"), b_row.get(col + "_per_partition")
+        if not a or not b or len(a) != len(b) or None in a or None in b:
+            continue
+        diff = np.asarray(a, float) - np.asarray(b, float)
+        out[col + "_diff"] = float(diff.mean())
+        out[col + "_diff_sd"] = float(diff.std(ddof=1)) if diff.size > 1 else None
+    return out
+
+
 def summarise(records: Sequence[dict], study: RobustnessStudy) -> dict:
     """Rows per (band set, perturbation) in the study's order: `COLUMNS` from
     `inversion.summarise`, `WIDTH_COLUMNS` and `ECE` per partition, each with
     mean, SD and per-partition values; paired differences against "clean"
-    (same band set, partition by partition: mean and SD); pooled reliability
+    (same band set, partition by partition: mean and SD); `versus`: the
+    first band set (ours) minus each other band set on the same row, paired
+    by partition the same way; pooled reliability
     of clean and perturbed level-1 probabilities per band set (JSON-ready,
     no NaN: an empty reliability bin is None)."""
     base = {
@@ -170,14 +186,20 @@ def summarise(records: Sequence[dict], study: RobustnessStudy) -> dict:
         if r["perturbation"] == "clean" or clean is None:
             continue
         d = {"band_set": r["band_set"], "perturbation": r["perturbation"]}
-        for col in PAIRED:
-            a, c = r.get(col + "_per_partition"), clean.get(col + "_per_partition")
-            if not a or not c or len(a) != len(c) or None in a or None in c:
-                continue
-            diff = np.asarray(a, float) - np.asarray(c, float)
-            d[col + "_diff"] = float(diff.mean())
-            d[col + "_diff_sd"] = float(diff.std(ddof=1)) if diff.size > 1 else None
+        d.update(_paired_columns(r, clean))
         paired.append(d)
+    first = study.band_sets[0][0]
+    versus = []
+    for r in rows:
+        if r["band_set"] == first:
+            continue
+        ours = by.get((first, r["perturbation"]))
+        if ours is None:
+            continue
+        d = {"band_set": first, "reference": r["band_set"],
+             "perturbation": r["perturbation"]}  # fmt: skip
+        d.update(_paired_columns(ours, r))
+        versus.append(d)
     rel = {}
     for b, _ in study.band_sets:
         clean = [r for r in records if r["band_set"] == b and r["kind"] == "clean"]
@@ -189,6 +211,7 @@ def summarise(records: Sequence[dict], study: RobustnessStudy) -> dict:
     return {
         "rows": rows,
         "paired": paired,
+        "versus": versus,
         "reliability": rel,
         "partitions": len({r["partition"] for r in records}),
         "fold": study.fold,
