@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from bandopt.estimators import InversionConfig
 from bandopt.robustness import Perturbation
 from bandopt.sensor.reference import load_band_set
 from bandopt.studies import judge
+from tests.test_robustness import LIGHT  # the shipped estimator without its slow extras
 
 
 def test_candidates_are_the_searchs_designs_with_its_pan_band():
@@ -89,18 +89,6 @@ def test_choice_takes_the_fewest_bands_within_one_sd_of_the_best():
     # a consistently worse small design (paired: +0.05 in every partition)
     losses["small"] = loss([0.25, 0.27, 0.26, 0.28])
     assert judge.choose(losses, n)["chosen"] == "big"
-
-
-LIGHT = InversionConfig(
-    mixtures=0,
-    peak_shifts_nm=(),
-    planck=False,
-    calibration="lamps",
-    floor_grid=(1e-3,),
-    interval_offsets=(0.0,),
-)
-"""The shipped estimator without its slow extras: this checks the study's
-plumbing, not the estimator."""
 
 
 KEEP = ("n2+pan a=0", "n3+pan a=0.5")
