@@ -132,6 +132,21 @@ def test_the_tiny_study_writes_a_verdict_that_agrees_with_its_rows(
         assert (tmp_path / name).is_file()
     assert result["choice"]["chosen"] in (tmp_path / "README.md").read_text()
     assert len(list((tmp_path / "candidates").glob("*.json"))) == 2
+    # the choice becomes the "spectral" recommendation (beside the output,
+    # since this is not the shipped folder) with the judged design's bands
+    from bandopt.results import recommended_band_set
+
+    rec = json.loads((tmp_path / "recommendation.json").read_text())["spectral"]
+    assert rec["set"] == result["choice"]["chosen"] and rec["chosen_by"] == "judge"
+    assert rec["search_pick"]["set"] == result["searched"]
+    assert rec["judge"]["J"] == pytest.approx(result["losses"][rec["set"]]["J"])
+    chosen = dict(every(judge.SEARCH))[rec["set"]]
+    got = recommended_band_set("spectral", path=tmp_path / "recommendation.json")
+    np.testing.assert_allclose(got.centre_nm, chosen.centre_nm)
+    np.testing.assert_allclose(got.fwhm_nm, chosen.fwhm_nm)
+    assert [b["name"] for b in rec["bands"]] == list(chosen.names)
+    again = load_band_set(tmp_path / "recommended_bands.json")
+    np.testing.assert_allclose(again.centre_nm, chosen.centre_nm)
 
 
 def test_the_report_shows_the_judged_choice_and_whether_the_search_agrees(tmp_path):

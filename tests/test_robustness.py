@@ -155,6 +155,30 @@ def test_resume_keeps_finished_units(run, tmp_path):
     assert rb.run_study(STUDY, packed, resume=True) == records
 
 
+def test_resume_reruns_a_band_set_whose_bands_changed(run, tmp_path):
+    """The digests beside the records say which bands each unit ran with; a
+    band set whose definition changed since (a new recommendation) is not
+    finished, the others are kept."""
+    path, records, _ = run
+    side = rb.digests_path(path)
+    assert side.name == "records.bands.json"
+    recorded = json.loads(side.read_text())
+    bands = resolve_band_set(STUDY.band_sets[0][1]).bands
+    assert recorded == {"recommended": rb.band_digest(bands)}
+    copy = tmp_path / "records.jsonl"
+    copy.write_text(path.read_text())
+    rb.digests_path(copy).write_text(side.read_text())
+    kept, done = rb.load_records(copy, STUDY, True, recorded)
+    assert done == {(0, "recommended")} and len(kept) == len(records)
+    other = resolve_band_set("nightsat").bands
+    assert rb.band_digest(other) != recorded["recommended"]
+    kept, done = rb.load_records(
+        copy, STUDY, True, {"recommended": rb.band_digest(other)}
+    )
+    assert (kept, done) == ([], set())
+    assert copy.read_text() == ""  # the changed unit's records are dropped
+
+
 def test_masking_a_class_removes_it_from_the_answer():
     part = rb.partition(STUDY, 0)
     bands = resolve_band_set(rb.BAND_SETS[0][1]).bands

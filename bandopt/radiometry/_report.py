@@ -17,7 +17,6 @@ import numpy as np
 
 from ..datasets import atmosphere as atm
 from ..forward import cropped
-from ..results import recommended_band_set
 from ..scene import DEFAULT_SURFACES, LIGHTING_CLASSES, build_scenarios
 from ..sensor import (
     REFERENCE_SENSORS,
@@ -147,6 +146,14 @@ def default_band_set():
     return reference_sensor(DEFAULT_BAND_SET)
 
 
+def _is_recommendation(path: Path) -> bool:
+    try:
+        data = json.loads(Path(path).read_text())
+    except (ValueError, UnicodeDecodeError, OSError):
+        return False
+    return isinstance(data, dict) and "spectral" in data and "bands" not in data
+
+
 def load_band_set(source: str):
     """A band set and its label from `source`: a reference sensor name, a
     band-set JSON file, or a recommendation JSON file (a top-level "spectral"
@@ -160,16 +167,11 @@ def load_band_set(source: str):
             "results/recommendation.json (its 'spectral' key), or run "
             "`make radiometry` (python -m experiments.radiometry --bands ours)."
         )
-    p = Path(source)
-    if p.suffix.lower() == ".json" and p.is_file():
-        try:
-            data = json.loads(p.read_text())
-        except (ValueError, UnicodeDecodeError):
-            data = None  # the band-set loader names the problem
-        if isinstance(data, dict) and "spectral" in data and "bands" not in data:
-            found = recommended_band_set("spectral", path=p)  # the one reader
-            return found, "ours", f"bands from {p} key 'spectral'"
     found = resolve_band_set(source)
+    if found.entry is None and found.bands is not None and _is_recommendation(
+        found.path
+    ):
+        return found.bands, "ours", f"bands from {found.path} key 'spectral'"
     if found.entry is None:
         return found.bands, found.label, f"band-set file {found.path}"
     return found.bands, found.label, found.entry.title

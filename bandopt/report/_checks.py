@@ -70,6 +70,16 @@ def check_spectral(src: Sources) -> list[str]:
                 "'spectral' part (re-run `make run`)."
             )
         return out
+    if rec.get("chosen_by") == "judge":
+        return out + _check_judged(src, rec)
+    if src.exists("judge/judge.json"):
+        judged = src.get("judge/judge.json", "/choice/chosen")
+        if judged != rec.get("set"):
+            out.append(
+                f"judge/judge.json chose {judged!r} but recommendation.json "
+                f"spectral/set is the search's {rec.get('set')!r} (re-run "
+                "`make judge ARGS=--resume`)."
+            )
     if src.exists("search/compare.json"):
         chosen = src.get("search/compare.json", "/pareto/recommended")
         if rec.get("set") != chosen:
@@ -142,6 +152,61 @@ def check_spectral(src: Sources) -> list[str]:
                     out.append(
                         f"{b['name']} {k}: recommendation.json {b.get(k)} vs "
                         f"search/tolerance.json per_band/{b['name']}/{tk} {t.get(tk)}."
+                    )
+    return out
+
+
+def _check_judged(src: Sources, rec: dict) -> list[str]:
+    """A "spectral" recommendation the judge wrote: its set is the judge's
+    choice, its bands are that design of the search (`compare.json`) and the
+    judge's `recommended_bands.json`, its loss is the judge's."""
+    out = []
+    key = rec.get("set")
+    if not src.exists("judge/judge.json"):
+        return ["recommendation.json spectral was chosen by the judge but "
+                "results/judge/judge.json is missing (run `make judge`)."]
+    judge = src.load("judge/judge.json")
+    if judge["choice"]["chosen"] != key:
+        out.append(
+            f"recommendation.json spectral/set = {key!r} but judge/judge.json "
+            f"choice/chosen = {judge['choice']['chosen']!r}."
+        )
+        return out
+    j = judge["losses"][key]["J"]
+    if not _close(rec.get("judge", {}).get("J"), j, JSON_RTOL):
+        out.append(
+            f"recommendation.json spectral/judge/J = {rec.get('judge', {}).get('J')} "
+            f"but judge/judge.json losses/{key}/J = {j}."
+        )
+    bands = rec.get("bands", [])
+    if src.exists("judge/recommended_bands.json"):
+        ref = src.get("judge/recommended_bands.json", "/bands")
+        if [b["name"] for b in ref] != [b["name"] for b in bands]:
+            out.append("band names differ: recommendation.json spectral vs "
+                       "judge/recommended_bands.json.")
+        for b, r in zip(bands, ref, strict=False):
+            for k in ("centre_nm", "fwhm_nm"):
+                if not _close(b.get(k), r.get(k), JSON_RTOL):
+                    out.append(
+                        f"{b['name']} {k}: recommendation.json spectral "
+                        f"{b.get(k)} vs judge/recommended_bands.json {r.get(k)}."
+                    )
+    if src.exists("search/compare.json"):
+        design = src.load("search/compare.json").get("designs", {}).get(key)
+        if design is None:
+            out.append(f"search/compare.json has no design {key!r} (the judge's "
+                       "choice): re-run `make judge`.")
+        elif design.get("stability"):
+            free = [b for b in bands if b["name"] != "PAN"]
+            for k in ("centre_nm", "fwhm_nm"):
+                want = design["stability"][k]
+                got = [b.get(k) for b in free]
+                if len(got) != len(want) or not all(
+                    _close(x, y, JSON_RTOL) for x, y in zip(got, want, strict=True)
+                ):
+                    out.append(
+                        f"recommendation.json spectral {k} {got} vs "
+                        f"search/compare.json designs/{key}/stability/{k} {want}."
                     )
     return out
 

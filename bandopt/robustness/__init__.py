@@ -48,6 +48,8 @@ from ._study import (
     PerturbedLamps as PerturbedLamps,
     RobustnessStudy as RobustnessStudy,
     lamp_records as lamp_records,
+    band_digest as band_digest,
+    digests_path as digests_path,
     load_records as load_records,
     mixture_partners as mixture_partners,
     partition as partition,

@@ -3,6 +3,7 @@ the resumable run (`bandopt.robustness`)."""
 
 import dataclasses
 import gzip
+import hashlib
 import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -116,8 +117,10 @@ QUICK_PERTURBATIONS = _rows(
 """A few rows of each family (background, noise, mixture, prior) for
 development runs (`--quick`)."""
 
-RECOMMENDED_BANDS = RESULTS_DIR / "search" / "recommended_bands.json"
-"""Our recommended band set (`make run`)."""
+RECOMMENDED_BANDS = RESULTS_DIR / "recommendation.json"
+"""Our recommended band set: the "spectral" key of the recommendation file
+(the judge's choice after `make judge`, else the search's pick after
+`make run`)."""
 
 BAND_SETS = (
     ("recommended", str(RECOMMENDED_BANDS)),
@@ -520,15 +523,56 @@ def _open(path: Path, mode: str):
     return gzip.open(path, mode) if path.suffix == ".gz" else path.open(mode[0])
 
 
-def load_records(path: Path, study: RobustnessStudy, resume: bool):
+def band_digest(bands) -> str:
+    """A short fingerprint of a band set's definition (its `to_dict()`
+    form, or a tabulated sensor's names and response arrays): equal digests,
+    equal responses."""
+    h = hashlib.sha256()
+    if hasattr(bands, "to_dict"):
+        d = {k: v for k, v in bands.to_dict().items() if k != "name"}
+        h.update(strict_dumps(d, indent=None).encode())
+    else:  # a tabulated reference sensor: its names and response arrays
+        import jax
+
+        h.update(repr(list(bands.names)).encode())
+        for leaf in jax.tree_util.tree_leaves(bands):
+            if hasattr(leaf, "shape"):
+                h.update(np.ascontiguousarray(np.asarray(leaf, float)).tobytes())
+    return h.hexdigest()[:16]
+
+
+def digests_path(records_path: Path) -> Path:
+    """The file beside `records_path` that records each band set's digest
+    (`band_digest`) the records were computed with: `records.bands.json` for
+    `records.jsonl.gz`."""
+    records_path = Path(records_path)
+    return records_path.with_name(records_path.name.split(".")[0] + ".bands.json")
+
+
+def load_records(
+    path: Path, study: RobustnessStudy, resume: bool, digests: dict | None = None
+):
     """Records of finished units `(partition, band set)` in `path` (JSON
     lines, gzip-compressed if it ends in `.gz`; a unit is
     finished when it holds every row the study can score in it) and the set
-    of those units; an empty start without `resume` (the file is removed)."""
+    of those units; an empty start without `resume` (the file is removed).
+
+    `digests` (label -> `band_digest`): a band set whose digest differs from
+    the one recorded beside the records (`digests_path`) has changed since
+    its units ran, so its units are not finished (they rerun: a band set
+    that changed, e.g. a new recommendation, is recomputed and the others
+    are kept). A label without a recorded digest is kept as it is."""
     path = Path(path)
+    side = digests_path(path)
     if not resume or not path.is_file():
         path.unlink(missing_ok=True)
+        side.unlink(missing_ok=True)
         return [], set()
+    try:
+        old = json.loads(side.read_text()) if side.is_file() else {}
+    except ValueError as err:
+        raise ValueError(f"{side}: not valid JSON ({err}).") from None
+    changed = {b for b, d in (digests or {}).items() if b in old and old[b] != d}
     recs = []
     with _open(path, "rt") as fh:
         try:
@@ -543,7 +587,7 @@ def load_records(path: Path, study: RobustnessStudy, resume: bool):
     for r in recs:
         units.setdefault((r["partition"], r["band_set"]), set()).add(r["perturbation"])
     need = {p.label for p in study.perturbations}
-    done = {u for u, labels in units.items() if need <= labels}
+    done = {u for u, labels in units.items() if need <= labels and u[1] not in changed}
     kept = [
         r
         for r in recs
@@ -565,8 +609,12 @@ def run_study(
     """Every unit (partition x band set) of `study` not already in
     `records_path` (with `resume`), each appended there when finished;
     returns all records. `partitions`: a subset to compute (default all)."""
-    records, done = load_records(records_path, study, resume)
     bands = {label: resolve_band_set(src).bands for label, src in study.band_sets}
+    digests = {label: band_digest(b) for label, b in bands.items()}
+    records, done = load_records(records_path, study, resume, digests)
+    side = digests_path(records_path)
+    old = json.loads(side.read_text()) if side.is_file() else {}
+    side.write_text(strict_dumps({**old, **digests}, indent=1) + "\n")
     todo = range(study.partitions) if partitions is None else partitions
     for p in todo:
         if all((p, b) in done for b in bands):

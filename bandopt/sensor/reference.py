@@ -22,6 +22,7 @@ Names are matched ignoring case and separators (`"VIIRS_DNB"` is
 """
 
 import dataclasses
+import json
 import os
 from collections.abc import Callable
 from importlib.resources import files
@@ -327,7 +328,9 @@ class BandSetSource:
 
 def resolve_band_set(source: str | os.PathLike) -> BandSetSource:
     """The one band-set loader: `source` is a band-set JSON file
-    (`BandSet.from_json`; a name ending in `.json`, or any existing file) or a
+    (`BandSet.from_json`; a name ending in `.json`, or any existing file), a
+    recommendation file (`results/recommendation.json`: a top-level
+    "spectral" key and no "bands"; its "spectral" band set) or a
     reference sensor name (`REFERENCE_SENSORS`, case and separators ignored).
     A missing file or an unknown name raises `ValueError` saying which."""
     path = Path(source)
@@ -342,6 +345,17 @@ def resolve_band_set(source: str | os.PathLike) -> BandSetSource:
                 f"{source}: no such band-set file (a band set is a JSON file or "
                 f"one of {list(REFERENCE_SENSORS)})."
             )
+        if path.suffix.lower() == ".json":
+            try:
+                data = json.loads(path.read_text())
+            except (ValueError, UnicodeDecodeError):
+                data = None  # the band-set loader names the problem
+            if isinstance(data, dict) and "spectral" in data and "bands" not in data:
+                from ..results import recommended_band_set  # the one reader
+
+                return BandSetSource(
+                    recommended_band_set("spectral", path=path), None, path
+                )
         return BandSetSource(BandSet.from_json(path), None, path)
     entry = resolve(str(source))
     return BandSetSource(entry.build(), entry, None)

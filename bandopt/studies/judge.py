@@ -36,7 +36,7 @@ import numpy as np
 from .. import robustness as rb
 from ..estimate import METRICS
 from ..provenance import write_manifest
-from ..results import RESULTS_DIR
+from ..results import RESULTS_DIR, update_recommendation
 from ..sensor import BandSet
 from ..sensor.reference import load_band_set
 from ..strict_json import strict_dumps
@@ -263,6 +263,72 @@ def verdict(
     }
 
 
+def recommendation_entry(
+    result: dict, compare: dict, bands: BandSet, judge_json: str
+) -> dict:
+    """The "spectral" recommendation for the judged choice: the chosen
+    design's bands (with the search's stability intervals of that design
+    where it has them), how it was chosen, its loss, the search's own pick
+    against it, and the search's surrogate score of the design (`test_mae`,
+    from `compare.json`, so the search section's numbers stay traceable)."""
+    ch = result["choice"]
+    key = ch["chosen"]
+    design = compare.get("designs", {}).get(key, {})
+    stab = design.get("stability") or {}
+    rows = []
+    for i, b in enumerate(bands.to_dict()["bands"]):
+        name = b["name"]
+        row = {"name": name, "centre_nm": b["centre_nm"], "fwhm_nm": b["fwhm_nm"]}
+        if name.upper() != "PAN":
+            for k in ("centre_interval_nm", "fwhm_interval_nm"):
+                if stab.get(k) is not None:
+                    row[k] = [float(x) for x in stab[k][i]]
+        rows.append(row)
+    loss = result["losses"][key]
+    entry = {
+        "set": key,
+        "bands": rows,
+        "band_set": bands.to_dict(),
+        "chosen_by": "judge",
+        "intervals": "centre/fwhm_interval_nm: range (min-max) of the design "
+        "over the search's lamp resamples (compare.json designs/<set>/"
+        "stability); the PAN band is fixed",
+        "tolerances": "not scanned for this design (the search's tolerance "
+        "scan, results/search/tolerance.json, is of the search's own pick)",
+        "rules": {
+            "choice": ch["rule"],
+            "loss": result["loss"],
+            "rows": result["rows"],
+            "design": stab.get("rule"),
+        },
+        "judge": {
+            "J": loss["J"],
+            "J_sd": loss["J_sd"],
+            "partitions": len(loss["J_per_partition"]),
+            "clean": result["clean"].get(key, {}),
+            "chosen_minus_reference": result["chosen_minus_reference"],
+        },
+        "search_pick": {
+            "set": result["searched"],
+            "minus_chosen": result["searched_minus_chosen"],
+        },
+        "estimator": "the shipped inversion (bandopt evaluate's defaults, "
+        "estimators.InversionConfig), fitted per lamp partition on the "
+        "training lamps; held-out measured lamps scored",
+        "source": judge_json,
+    }
+    if "mae_mean" in design:
+        entry["test_mae"] = {
+            "partitions": design.get("partitions"),
+            "mae_mean": design["mae_mean"],
+            "mae_sd": design.get("mae_sd"),
+            "f1_mean": design.get("f1_mean"),
+            "note": "the search's surrogate score of this design "
+            "(compare.json), not the shipped estimator's",
+        }
+    return entry
+
+
 def readme_text(result: dict) -> str:
     """`README.md` of the judge: the rule, the table of losses and the
     verdict."""
@@ -363,7 +429,10 @@ def run(
     """Judge the candidates of the search in `search`: band-set files in
     `out/candidates/`, records in `out/records.jsonl.gz` (resumable per
     (partition, band set)), then `summary.json` (the robustness rows),
-    `judge.json`, `judge.png`, `README.md` and the manifest. With
+    `judge.json`, `judge.png`, `README.md`, the chosen design
+    (`recommended_bands.json`), its "spectral" recommendation (in
+    `results/recommendation.json` when `out` is the shipped `OUT`, else in
+    `out/recommendation.json`) and the manifest. With
     `only_partitions`, only those units are computed and nothing is
     summarised (returns None); a later `resume=True` run joins them."""
     out = Path(out)
@@ -397,5 +466,14 @@ def run(
     (out / "judge.json").write_text(strict_dumps(result, indent=2) + "\n")
     figure(result, out / "judge.png")
     (out / "README.md").write_text(readme_text(result))
+    chosen = dict(band_sets)[result["choice"]["chosen"]]
+    bands = BandSet.from_json(chosen)
+    bands.to_json(out / "recommended_bands.json")
+    shipped = out.resolve() == OUT.resolve()
+    update_recommendation(
+        "spectral",
+        recommendation_entry(result, compare, bands, str(out / "judge.json")),
+        path=None if shipped else out / "recommendation.json",
+    )
     write_manifest(out, seed=st.seed, config={**st.to_dict(), "search": str(search)})
     return result
