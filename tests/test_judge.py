@@ -113,6 +113,7 @@ def test_the_tiny_study_writes_a_verdict_that_agrees_with_its_rows(
     assert result["choice"]["chosen"] in ("n2+pan a=0", "n3+pan a=0.5")
     assert result["n_bands"] == {"n2+pan a=0": 3, "n3+pan a=0.5": 4, "nightsat": 6}
     summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["versus"] == []  # peers: their pairs are in judge.json
     again = judge.losses(summary, result["truth_sd"], list(result["losses"]))
     for b, v in again.items():
         assert v["J"] == pytest.approx(result["losses"][b]["J"])

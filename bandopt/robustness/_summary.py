@@ -133,13 +133,16 @@ def _paired_columns(a_row: dict, b_row: dict) -> dict:
     return out
 
 
-def summarise(records: Sequence[dict], study: RobustnessStudy) -> dict:
+def summarise(
+    records: Sequence[dict], study: RobustnessStudy, *, versus: bool = True
+) -> dict:
     """Rows per (band set, perturbation) in the study's order: `COLUMNS` from
     `inversion.summarise`, `WIDTH_COLUMNS` and `ECE` per partition, each with
     mean, SD and per-partition values; paired differences against "clean"
     (same band set, partition by partition: mean and SD); `versus`: the
     first band set (ours) minus each other band set on the same row, paired
-    by partition the same way; pooled reliability
+    by partition the same way (`versus=False`: none, for studies whose band
+    sets are peers, such as the judge's candidates); pooled reliability
     of clean and perturbed level-1 probabilities per band set (JSON-ready,
     no NaN: an empty reliability bin is None)."""
     base = {
@@ -189,8 +192,8 @@ def summarise(records: Sequence[dict], study: RobustnessStudy) -> dict:
         d.update(_paired_columns(r, clean))
         paired.append(d)
     first = study.band_sets[0][0]
-    versus = []
-    for r in rows:
+    pairs = []
+    for r in rows if versus else ():
         if r["band_set"] == first:
             continue
         ours = by.get((first, r["perturbation"]))
@@ -199,7 +202,7 @@ def summarise(records: Sequence[dict], study: RobustnessStudy) -> dict:
         d = {"band_set": first, "reference": r["band_set"],
              "perturbation": r["perturbation"]}  # fmt: skip
         d.update(_paired_columns(ours, r))
-        versus.append(d)
+        pairs.append(d)
     rel = {}
     for b, _ in study.band_sets:
         clean = [r for r in records if r["band_set"] == b and r["kind"] == "clean"]
@@ -211,7 +214,7 @@ def summarise(records: Sequence[dict], study: RobustnessStudy) -> dict:
     return {
         "rows": rows,
         "paired": paired,
-        "versus": versus,
+        "versus": pairs,
         "reliability": rel,
         "partitions": len({r["partition"] for r in records}),
         "fold": study.fold,

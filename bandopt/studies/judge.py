@@ -455,7 +455,7 @@ def run(
     )  # fmt: skip
     if only_partitions is not None:
         return None
-    summary = rb.summarise(records, st)
+    summary = rb.summarise(records, st, versus=False)  # peers: paired in judge.json
     compare = json.loads((Path(search) / "compare.json").read_text())
     n_bands = {label: len(load_band_set(src).names) for label, src in band_sets}
     result = verdict(
