@@ -145,6 +145,19 @@ def recommended_band_set(
     )
 
 
+def bands_record(bands) -> list[dict]:
+    """The bands a study ran with, as a results file records them (name,
+    centre and FWHM [nm]; a tabulated sensor: names only), so the report can
+    tell a study made with other bands than the recommendation's."""
+    d = bands.to_dict() if hasattr(bands, "to_dict") else None
+    if d is None:
+        return [{"name": str(n)} for n in bands.names]
+    return [
+        {k: b[k] for k in ("name", "centre_nm", "fwhm_nm") if k in b}
+        for b in d["bands"]
+    ]
+
+
 README = "README.md"
 """The results index: one linked line per experiment's page."""
 SECTIONS = "sections"

@@ -331,6 +331,49 @@ def check_spatial(src: Sources) -> list[str]:
     return out
 
 
+OUR_BANDS_USED = (
+    ("robustness/summary.json", "bands", "recommended", "make robustness"),
+    ("spatial/summary.json", "bands", None, "make spatial"),
+    ("spatial/overlap.json", "band_definitions", None, "make spatial"),
+)
+"""Results made with our bands, where each records them (file, field, key
+within it or None) and what re-makes it."""
+
+
+def check_study_bands(src: Sources) -> list[str]:
+    """Each study in `OUR_BANDS_USED` ran with the spectral recommendation's
+    bands (names, centres and FWHMs), else it is stale."""
+    spectral = _rec(src).get("spectral")
+    if spectral is None:
+        return []
+    want = spectral.get("bands", [])
+    out = []
+    for path, field, key, make in OUR_BANDS_USED:
+        if not src.exists(path):
+            continue
+        got = src.load(path).get(field)
+        if isinstance(got, dict):
+            got = got.get(key)
+        if not isinstance(got, list):
+            out.append(
+                f"results/{path} does not record the bands it ran with ({field}"
+                + (f"/{key}" if key else "") + f"): re-run `{make}`."
+            )
+            continue
+        same = [b.get("name") for b in got] == [b.get("name") for b in want] and all(
+            _close(g.get(k), w.get(k), JSON_RTOL)
+            for g, w in zip(got, want, strict=True)
+            for k in ("centre_nm", "fwhm_nm")
+        )
+        if not same:
+            out.append(
+                f"results/{path} ran with bands "
+                f"{[(b.get('name'), b.get('centre_nm')) for b in got]}, not the "
+                f"spectral recommendation {spectral.get('set')!r}: re-run `{make}`."
+            )
+    return out
+
+
 def check_classification(src: Sources) -> list[str]:
     """recommendation.json "classification" against classify/summary.json."""
     rec = _rec(src).get("classification")
@@ -468,6 +511,7 @@ CHECKS = (
     check_spectral,
     check_radiometry,
     check_spatial,
+    check_study_bands,
     check_classification,
     check_readme,
 )

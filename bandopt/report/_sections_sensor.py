@@ -26,8 +26,10 @@ def _tolerance_cell(src: Sources, rel: str, p: str, stem: str, unit: str, *,
     nominal bands, then `<stem>_calibrated_<unit>` (estimator coefficients
     refitted on the as-built responses) when the recommendation has it (runs before the
     calibrated scan do not)."""
-    cell = _interval_or_none(src, rel, f"{p}/{stem}_{unit}", digits)
     band = src.get(rel, p)
+    if f"{stem}_{unit}" not in band:
+        return "not scanned"  # a judged design: the search scanned its own pick
+    cell = _interval_or_none(src, rel, f"{p}/{stem}_{unit}", digits)
     if f"{stem}_calibrated_{unit}" in band:
         cal = _interval_or_none(src, rel, f"{p}/{stem}_calibrated_{unit}", digits)
         cell += f"; calibrated {cal}"
@@ -89,6 +91,20 @@ def recommended_sensor(ctx: Ctx) -> str:
         + ". Intervals in brackets: " + esc(spectral.get("intervals", ""))
         + "; tolerances: " + esc(spectral.get("tolerances", "")) + ".</p>"
     )
+    if spectral.get("chosen_by") == "judge":
+        d = pointer("spectral", "search_pick", "minus_chosen", "J")
+        parts.append(
+            "<p>Chosen by the judge (<code>make judge</code>): among the "
+            "search's candidates, the fewest bands whose loss under the "
+            "shipped estimator, on clean and perturbed held-out lamps, is within "
+            "one SD of the lowest (loss J " + src.num(R, "/spectral/judge/J")
+            + " &plusmn; " + src.num(R, "/spectral/judge/J_sd", digits=2)
+            + "). The search's own pick, "
+            + src.text(R, "/spectral/search_pick/set", shown=design_name)
+            + " (chosen on its surrogate, moonless and unperturbed), has a loss "
+            "higher by " + src.num(R, d + "/mean") + " &plusmn; "
+            + src.num(R, d + "/sd", digits=2) + " (paired by lamp partition).</p>"
+        )
     search = spectral.get("search")
     if search is None:
         parts.append(missing_box(
@@ -139,7 +155,16 @@ def recommended_sensor(ctx: Ctx) -> str:
          "SNR at limit", "limit set by"],
         rows, caption="Recommended sensor (cf. thesis Table 5.1)", cls="table51",
     ))
-    parts.append(_leakage_and_aoi(src))
+    leak = _leakage_and_aoi(src)
+    if leak and spectral.get("chosen_by") == "judge":
+        pick = spectral.get("search_pick", {}).get("set", "?")
+        leak = leak.replace(
+            "<p>Tolerated deviations",
+            "<p>Of the search's own pick (" + design_name(pick)
+            + "), not of this design: tolerated deviations",
+            1,
+        )
+    parts.append(leak)
     sensor = []
     if rad is None:
         parts.append(ctx.need("radiometry") or missing_box(

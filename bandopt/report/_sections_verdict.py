@@ -252,6 +252,8 @@ def _judge_table(src: Sources) -> str:
             ]
         )  # fmt: skip
     d = res["searched_minus_chosen"]["J"]
+    rec = src.load("recommendation.json") if src.exists("recommendation.json") else {}
+    adopted = rec.get("spectral", {}).get("set") == chosen
     agree = "The choice: " + design_name(chosen) + ". " + (
         "The search's pick is the judged choice."
         if res["agrees_with_search"]
@@ -260,8 +262,15 @@ def _judge_table(src: Sources) -> str:
         + src.num(JUDGE, "/searched_minus_chosen/J/mean", digits=2)
         + (" ± " + src.num(JUDGE, "/searched_minus_chosen/J/sd", digits=2)
            if d["sd"] is not None else "")
-        + " against the choice (paired by partition). The downstream results "
-        "still use the search's pick until they are recomputed on the choice."
+        + " against the choice (paired by partition). "
+        + (
+            "The choice is the spectral recommendation (the sensor section "
+            "and every study that reads our bands use it)."
+            if adopted
+            else "The downstream results still use the search's pick until "
+            "<code>make judge ARGS=--resume</code> makes the choice the "
+            "recommendation and they are recomputed on it."
+        )
     )  # fmt: skip
     return (
         "<p>Which design: the search's candidates (each band count's stability "

@@ -8,6 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from ..provenance import write_manifest
+from ..results import bands_record
+from ..sensor.reference import resolve_band_set
 from ..strict_json import strict_dumps
 
 
@@ -173,6 +175,13 @@ def write_outputs(summary: dict, study, out: Path) -> None:
     """`summary.json` (strict JSON), the figure, `README.md` and the
     manifest of a finished run."""
     out.mkdir(parents=True, exist_ok=True)
+    summary = {
+        **summary,
+        "bands": {
+            label: bands_record(resolve_band_set(src).bands)
+            for label, src in study.band_sets
+        },
+    }
     text = strict_dumps(summary, indent=2)
     (out / "summary.json").write_text(text + "\n")
     figure(summary, out / "robustness.png")

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ..datasets import atmosphere as atm
 from ..provenance import write_manifest
-from ..results import recommended_band_set
+from ..results import bands_record, recommended_band_set
 from ..sensor import reference_sensor
 from ..strict_json import strict_dumps
 from ._imaging import GSDS_M
@@ -73,7 +73,13 @@ def run_overlap_study(
         )
     (out / "overlap.json").write_text(
         strict_dumps(
-            {"bands": source, "atmosphere": atmosphere, "dx_m": dx, "rows": rows},
+            {
+                "bands": source,
+                "band_definitions": bands_record(bands),
+                "atmosphere": atmosphere,
+                "dx_m": dx,
+                "rows": rows,
+            },
             indent=2,
         )
         + "\n"

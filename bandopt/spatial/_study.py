@@ -30,7 +30,7 @@ import numpy as np
 
 from ..datasets import atmosphere as atm
 from ..provenance import write_manifest
-from ..results import recommended_band_set, update_recommendation
+from ..results import bands_record, recommended_band_set, update_recommendation
 from ..sensor import reference_sensor
 from ..strict_json import strict_dumps
 from ._background import background_image
@@ -335,6 +335,7 @@ def run_gsd_study(study: GsdStudy, out: Path) -> dict:
         "thesis": "about 10 m in most cases (De Meester 2019, section 4.3)",
         "why": WHY,
         "assumptions": assumptions(study, sensor),
+        "bands": bands_record(bands),
         "overlapping_lamp_types": "see overlap.json / overlap.png "
         "(python -m experiments.spatial_overlap, run by `make spatial`)",
     }

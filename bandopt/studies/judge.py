@@ -263,14 +263,24 @@ def verdict(
     }
 
 
+def _load(path: Path) -> dict | None:
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
 def recommendation_entry(
-    result: dict, compare: dict, bands: BandSet, judge_json: str
+    result: dict,
+    compare: dict,
+    bands: BandSet,
+    judge_json: str,
+    stability_doc: dict | None = None,
 ) -> dict:
     """The "spectral" recommendation for the judged choice: the chosen
     design's bands (with the search's stability intervals of that design
     where it has them), how it was chosen, its loss, the search's own pick
     against it, and the search's surrogate score of the design (`test_mae`,
-    from `compare.json`, so the search section's numbers stay traceable)."""
+    from `compare.json`, so the search section's numbers stay traceable) and
+    the solvers that found it (`search`: the search's `stability.json`
+    optimiser notes, this design's convergence in `compare.json`)."""
     ch = result["choice"]
     key = ch["chosen"]
     design = compare.get("designs", {}).get(key, {})
@@ -279,10 +289,11 @@ def recommendation_entry(
     for i, b in enumerate(bands.to_dict()["bands"]):
         name = b["name"]
         row = {"name": name, "centre_nm": b["centre_nm"], "fwhm_nm": b["fwhm_nm"]}
-        if name.upper() != "PAN":
-            for k in ("centre_interval_nm", "fwhm_interval_nm"):
-                if stab.get(k) is not None:
-                    row[k] = [float(x) for x in stab[k][i]]
+        for k, v in (("centre_interval_nm", b["centre_nm"]),
+                     ("fwhm_interval_nm", b["fwhm_nm"])):  # fmt: skip
+            ranges = stab.get(k) or []
+            # the fixed PAN band (and a design without resamples): no range
+            row[k] = [float(x) for x in ranges[i]] if i < len(ranges) else [v, v]
         rows.append(row)
     loss = result["losses"][key]
     entry = {
@@ -317,6 +328,15 @@ def recommendation_entry(
         "training lamps; held-out measured lamps scored",
         "source": judge_json,
     }
+    conv = design.get("convergence") or {}
+    if stability_doc is not None and "optimiser" in stability_doc:
+        opt = stability_doc["optimiser"]
+        entry["search"] = {
+            "global": opt["global"],
+            "local": opt["local"],
+            "designs_converged": conv.get("designs_converged"),
+            "designs": conv.get("designs"),
+        }
     if "mae_mean" in design:
         entry["test_mae"] = {
             "partitions": design.get("partitions"),
@@ -472,7 +492,13 @@ def run(
     shipped = out.resolve() == OUT.resolve()
     update_recommendation(
         "spectral",
-        recommendation_entry(result, compare, bands, str(out / "judge.json")),
+        recommendation_entry(
+            result,
+            compare,
+            bands,
+            str(out / "judge.json"),
+            _load(Path(search) / "stability.json"),
+        ),
         path=None if shipped else out / "recommendation.json",
     )
     write_manifest(out, seed=st.seed, config={**st.to_dict(), "search": str(search)})
