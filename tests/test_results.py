@@ -78,3 +78,33 @@ def test_committed_index_links_every_page():
     assert linked == pages and len(pages) > 10
     for name in pages:
         assert index.count(f"<!-- {name}:start -->") == 1
+
+
+def test_a_recommendation_file_is_a_band_set_source(tmp_path):
+    """`resolve_band_set` (every command's band loader) reads a recommendation
+    file's "spectral" band set, equal to the band-set file it was written
+    from; a recommendation without one is an error naming the file and key;
+    `bands_record` keeps each band's name, centre and FWHM."""
+    import numpy as np
+
+    from bandopt.results import bands_record
+    from bandopt.sensor import BandSet
+    from bandopt.sensor.reference import resolve_band_set
+
+    bands = BandSet.from_physical(
+        [450.0, 640.0], [60.0, 480.0], 6.0, names=["B1", "PAN"], name="x"
+    )
+    update_recommendation(
+        "spectral", {"set": "x", "band_set": bands.to_dict()}, results_dir=tmp_path
+    )
+    got = resolve_band_set(tmp_path / "recommendation.json").bands
+    np.testing.assert_allclose(got.centre_nm, bands.centre_nm)
+    np.testing.assert_allclose(got.fwhm_nm, bands.fwhm_nm)
+    rec = bands_record(got)
+    assert [b["name"] for b in rec] == ["B1", "PAN"]
+    assert rec[0]["centre_nm"] == pytest.approx(450.0)
+    assert rec[1]["fwhm_nm"] == pytest.approx(480.0)
+    update_recommendation("spectral", {"set": "x"}, results_dir=tmp_path)
+    with pytest.raises(ValueError, match=r"recommendation\.json: key 'spectral'"):
+        resolve_band_set(tmp_path / "recommendation.json")
+    assert [b["name"] for b in bands_record(resolve_band_set("nightsat").bands)][0]
