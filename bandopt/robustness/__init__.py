@@ -41,12 +41,14 @@ from ._study import (
     KINDS as KINDS,
     QUICK_PERTURBATIONS as QUICK_PERTURBATIONS,
     RECOMMENDED_BANDS as RECOMMENDED_BANDS,
+    SENSOR_KINDS as SENSOR_KINDS,
     STUDY_PERTURBATIONS as STUDY_PERTURBATIONS,
     Extension as Extension,
     Partition as Partition,
     Perturbation as Perturbation,
     PerturbedLamps as PerturbedLamps,
     RobustnessStudy as RobustnessStudy,
+    as_built as as_built,
     band_digest as band_digest,
     digests_path as digests_path,
     lamp_records as lamp_records,
@@ -69,4 +71,10 @@ from ._summary import (
     partition_width as partition_width,
     reliability as reliability,
     summarise as summarise,
+)
+from ._tolerance import (
+    tolerance_intervals as tolerance_intervals,
+    tolerance_perturbations as tolerance_perturbations,
+    tolerance_study as tolerance_study,
+    write_tolerances as write_tolerances,
 )

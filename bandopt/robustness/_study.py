@@ -32,6 +32,10 @@ KINDS = (
     "mixture",
     "left-out",
     "truncation",
+    "band-centre",
+    "band-fwhm",
+    "leakage",
+    "aoi",
 )
 """Perturbation kinds; what `Perturbation.value` means for each is in
 `Perturbation`'s docstring."""
@@ -54,14 +58,30 @@ class Perturbation:
     - "left-out": the lamp's level-2 class masked in the prior (value
       unused);
     - "truncation": the last measured wavelength [nm], extended by the
-      product's extension (`perturb.truncate_and_extend`)."""
+      product's extension (`perturb.truncate_and_extend`);
+
+    and the as-built sensor, read by the estimator fitted to the nominal
+    bands (`as_built`; the clean spectra):
+
+    - "band-centre": band `band`'s centre moved by `value` [nm];
+    - "band-fwhm": band `band`'s FWHM times `value` [1];
+    - "leakage": every band's out-of-band blocking floor, response
+      r -> r + value (1 - r) [1];
+    - "aoi": every band blue-shifted by an angle of incidence of `value`
+      [deg] (`search.perturbed_bands`)."""
 
     kind: str
     value: float = 0.0
+    band: str = ""
 
     def __post_init__(self):
         object.__setattr__(self, "kind", validate_method(self.kind, KINDS, "kind"))
         object.__setattr__(self, "value", float(self.value))
+        if (self.kind in BAND_KINDS) != bool(self.band):
+            raise ValueError(
+                f"Perturbation {self.kind!r}: band {self.band!r}: a band is "
+                f"named for {list(BAND_KINDS)} and for nothing else."
+            )
 
     @property
     def label(self) -> str:
@@ -78,13 +98,60 @@ class Perturbation:
             "mixture": f"{pct} other lamp",
             "left-out": "type left out of the prior",
             "truncation": f"truncated at {v} nm",
+            "band-centre": f"{self.band} centre {self.value:+g} nm",
+            "band-fwhm": f"{self.band} FWHM x {v}",
+            "leakage": f"leakage {v}",
+            "aoi": f"angle of incidence {v} deg",
         }[self.kind]
+
+    @property
+    def sensor(self) -> bool:
+        """Whether this changes the as-built sensor (the spectra are clean)."""
+        return self.kind in SENSOR_KINDS
 
     @property
     def spectral(self) -> bool:
         """Whether this perturbs the lamp spectra (else the clean spectra are
-        scored, by the full or a masked prior)."""
-        return self.kind not in ("clean", "left-out")
+        scored, by the full or a masked prior, or through an as-built
+        sensor)."""
+        return self.kind not in ("clean", "left-out") and not self.sensor
+
+
+BAND_KINDS = ("band-centre", "band-fwhm")
+"""Kinds that change one named band."""
+
+SENSOR_KINDS = (*BAND_KINDS, "leakage", "aoi")
+"""Kinds that change the as-built sensor, not the spectra."""
+
+
+def as_built(bands, pert: Perturbation):
+    """The band set the sensor measures with under `pert`: `bands` itself,
+    or its copy with one band's centre or FWHM moved, a leakage floor or an
+    angle of incidence (`search.perturbed_bands`). A band `bands` lacks is
+    an error naming it."""
+    if not pert.sensor:
+        return bands
+    from ..search import perturbed_bands
+
+    names = list(bands.names)
+    n = len(names)
+    if pert.kind in BAND_KINDS:
+        if pert.band not in names:
+            raise ValueError(
+                f"row {pert.label!r}: band {pert.band!r} is not in the band set "
+                f"{names}."
+            )
+        i = names.index(pert.band)
+        if pert.kind == "band-centre":
+            dc = np.zeros(n)
+            dc[i] = pert.value
+            return perturbed_bands(bands, dc=dc)
+        sc = np.ones(n)
+        sc[i] = pert.value
+        return perturbed_bands(bands, scale=sc)
+    if pert.kind == "leakage":
+        return perturbed_bands(bands, leakage=pert.value)
+    return perturbed_bands(bands, aoi_deg=pert.value)
 
 
 def _rows(*pairs) -> tuple[Perturbation, ...]:
@@ -295,7 +362,7 @@ def perturbed_lamps(study: RobustnessStudy, part: Partition) -> dict:
     for k, pert in enumerate(study.perturbations):
         notes: tuple = ({},) * len(part.test)
         v = pert.value
-        if pert.kind in ("clean", "left-out"):
+        if pert.kind in ("clean", "left-out") or pert.sensor:
             s = clean
         elif pert.kind == "background-flat":
             s = perturb.add_flat_background(clean, grid, v)
@@ -479,7 +546,7 @@ def run_partition(
     for label, pl in perturbed.items():
         pert = by_label[label]
         toa = scene_spectra(ctx, pl.spectra) if pert.spectral else ctx.toa[part.test]
-        rad = ctx.radiance_of(toa, bands, seed=seed)
+        rad = ctx.radiance_of(toa, as_built(bands, pert), seed=seed)
         if pert.kind == "left-out":
             l2 = np.asarray([lamps.level2[i] for i in part.test], dtype=object)
             res = {}

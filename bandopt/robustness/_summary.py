@@ -161,6 +161,7 @@ def summarise(
                 "perturbation": pert.label,
                 "kind": pert.kind,
                 "value": pert.value,
+                **({"band": pert.band} if pert.band else {}),
                 "partitions": src["partitions"],
                 "lamps_per_partition": src["lamps_per_partition"],
                 "out_of_range": src["out_of_range"],
