@@ -719,3 +719,39 @@ def test_a_study_made_with_other_bands_than_the_recommendation_is_stale(tmp_path
     summary.write_text(json.dumps({"bands": {"recommended": moved}}))
     (msg,) = stale()
     assert "robustness/summary.json ran with bands" in msg and "make robustness" in msg
+
+
+def test_a_judged_design_shows_the_shipped_estimators_tolerances(small, tmp_path):
+    """With the shipped estimator's tolerance scan, the judged design's
+    tolerance cells and the leakage and angle-of-incidence line come from
+    it, each end linked, open ends marked, failures named."""
+    rec = json.loads((small / "recommendation.json").read_text())
+    if rec["spectral"].get("chosen_by") != "judge":
+        pytest.skip("the committed recommendation is the search's")
+    name = rec["spectral"]["bands"][0]["name"]
+
+    def scan(lo, hi, fails, open_high=False):
+        return {"interval": [lo, hi], "fails_at": fails, "open_low": False,
+                "open_high": open_high, "points": []}  # fmt: skip
+
+    tol = {
+        "rule": "every metric within 1.10x of nominal",
+        "partitions": 4,
+        "per_band": {name: {"centre_nm": scan(-5.0, 10.0, [-10.0, 20.0]),
+                            "fwhm_factor": scan(0.7, 2.0, [0.5, None], True)}},
+        "leakage": scan(0.0, 0.001, [None, 0.01]),
+        "aoi_deg": scan(0.0, 30.0, [None, None], True),
+    }  # fmt: skip
+    path = small / "robustness" / "tolerance" / "tolerance.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(tol))
+    text = build_report(small, tmp_path / "out", strict=False).path.read_text()
+    page = _Page()
+    page.feed(text)
+    T = "robustness/tolerance/tolerance.json"
+    got = {a["data-ptr"]: a["data-value"] for a in page.nums if a["data-src"] == T}
+    assert got[f"/per_band/{name}/centre_nm/fails_at/1"] == "20.0"
+    assert got[f"/per_band/{name}/fwhm_factor/interval/0"] == "0.7"
+    assert got["/leakage/fails_at/1"] == "0.01"
+    assert "&ge; " in text or "≥ " in text  # an open end
+    assert "shipped estimator's own scan" in text

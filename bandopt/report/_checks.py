@@ -335,6 +335,8 @@ OUR_BANDS_USED = (
     ("robustness/summary.json", "bands", "recommended", "make robustness"),
     ("spatial/summary.json", "bands", None, "make spatial"),
     ("spatial/overlap.json", "band_definitions", None, "make spatial"),
+    ("robustness/tolerance/summary.json", "bands", "recommended",
+     'make robustness ARGS="--config tolerance"'),
 )
 """Results made with our bands, where each records them (file, field, key
 within it or None) and what re-makes it."""

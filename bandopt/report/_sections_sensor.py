@@ -27,13 +27,48 @@ def _tolerance_cell(src: Sources, rel: str, p: str, stem: str, unit: str, *,
     refitted on the as-built responses) when the recommendation has it (runs before the
     calibrated scan do not)."""
     band = src.get(rel, p)
-    if f"{stem}_{unit}" not in band:
-        return "not scanned"  # a judged design: the search scanned its own pick
+    if f"{stem}_{unit}" not in band:  # a judged design: the shipped estimator's scan
+        field = "centre_nm" if stem == "centre_tolerance" else "fwhm_factor"
+        return _shipped_tolerances(src, band["name"], field, digits)
     cell = _interval_or_none(src, rel, f"{p}/{stem}_{unit}", digits)
     if f"{stem}_calibrated_{unit}" in band:
         cal = _interval_or_none(src, rel, f"{p}/{stem}_calibrated_{unit}", digits)
         cell += f"; calibrated {cal}"
     return cell
+
+
+SHIPPED_TOLERANCE = "robustness/tolerance/tolerance.json"
+"""The tolerance scan with the shipped estimator (`make robustness
+ARGS="--config tolerance"`)."""
+
+
+def _shipped_interval(src: Sources, ptr: str, digits: int) -> str:
+    """A tolerance interval of the shipped estimator's scan: its ends, "at
+    least" where the grid's edge still passes, and where it fails."""
+    T = SHIPPED_TOLERANCE
+    iv = src.get(T, ptr)
+    lo = src.num(T, ptr + "/interval/0", digits=digits)
+    hi = src.num(T, ptr + "/interval/1", digits=digits)
+    lo = ("&le; " if iv["open_low"] else "") + lo
+    hi = ("&ge; " if iv["open_high"] else "") + hi
+    fails = [
+        src.num(T, f"{ptr}/fails_at/{k}", digits=digits)
+        for k in (0, 1)
+        if iv["fails_at"][k] is not None
+    ]
+    where = " (fails at " + " and ".join(fails) + ")" if fails else ""
+    return f"[{lo}, {hi}]{where}"
+
+
+def _shipped_tolerances(src: Sources, name: str, field: str, digits: int) -> str:
+    """Band `name`'s `field` ("centre_nm", "fwhm_factor") interval from the
+    shipped estimator's scan, or "not scanned"."""
+    if not src.exists(SHIPPED_TOLERANCE):
+        return "not scanned"
+    per = src.get(SHIPPED_TOLERANCE, "/per_band")
+    if field not in per.get(name, {}):
+        return "not scanned"
+    return _shipped_interval(src, pointer("per_band", name, field), digits)
 
 
 def _leakage_and_aoi(src: Sources) -> str:
@@ -165,6 +200,18 @@ def recommended_sensor(ctx: Ctx) -> str:
             1,
         )
     parts.append(leak)
+    if spectral.get("chosen_by") == "judge" and src.exists(SHIPPED_TOLERANCE):
+        T = SHIPPED_TOLERANCE
+        parts.append(
+            "<p>Tolerances of this design (columns above, leakage and angle of "
+            "incidence here) come from the shipped estimator's own scan ("
+            + src.link(T) + "): " + esc(src.get(T, "/rule")) + "; "
+            + src.num(T, "/partitions") + " lamp partitions. Out-of-band "
+            "leakage, all bands: " + _shipped_interval(src, "/leakage", 3)
+            + "; angle of incidence: " + _shipped_interval(src, "/aoi_deg", 3)
+            + " deg. An end marked &ge; or &le; still passes at the scan's "
+            "edge.</p>"
+        )
     sensor = []
     if rad is None:
         parts.append(ctx.need("radiometry") or missing_box(
