@@ -90,7 +90,7 @@ external-tm30: $(STAMP)  ## external check: bandopt evaluate, as a user runs it,
 unseen-ceiling: $(STAMP)  ## the level-1 family of unseen lamp types from bare lamp spectra (5-50 nm) and the recommended bands, classifiers trained on the other classes: the ceiling of issue 12's 90 % goal (under a minute)
 	$(BIN)/python -m experiments.unseen_ceiling $(ARGS)
 
-robustness: $(STAMP)  ## the shipped estimate on held-out lamps under measurement effects (background, noise, slit, shift, truncation, mixtures, a type left out of the prior), paired with the clean rows, our bands and SDGSAT-1 and Nightsat, 4 lamp partitions -> results/robustness (resumable: ARGS=--resume; ARGS=--quick for a short run)
+robustness: $(STAMP)  ## the shipped estimate on held-out lamps under measurement effects (background, noise, slit, shift, truncation, mixtures, a type left out of the prior), paired with the clean rows, our bands and SDGSAT-1 and Nightsat, 4 lamp partitions -> results/robustness (resumable: ARGS=--resume; ARGS=--quick for a short run; ARGS="--config tolerance": our bands' filter tolerances under the shipped estimator -> results/robustness/tolerance)
 	nice $(BIN)/python -m experiments.robustness $(ARGS)
 
 judge: $(STAMP)  ## the search's candidate designs and the reference sensors judged by the shipped estimator on clean and perturbed held-out lamps, 4 lamp partitions; the choice by the one-SD rule -> results/judge (resumable: ARGS=--resume)
