@@ -10,6 +10,7 @@ quick or partial run can never pass for the full result.
 """
 
 import datetime as _dt
+import hashlib
 import json
 import os
 import sys
@@ -156,6 +157,33 @@ def bands_record(bands) -> list[dict]:
         {k: b[k] for k in ("name", "centre_nm", "fwhm_nm") if k in b}
         for b in d["bands"]
     ]
+
+
+def band_digest(bands) -> str:
+    """A short fingerprint of a band set's definition (its `to_dict()`
+    form, or a tabulated sensor's names and response arrays): equal digests,
+    equal responses."""
+    h = hashlib.sha256()
+    if hasattr(bands, "to_dict"):
+        d = {k: v for k, v in bands.to_dict().items() if k != "name"}
+        h.update(strict_dumps(d, indent=None).encode())
+    else:  # a tabulated reference sensor: its names and response arrays
+        import jax  # the tabulated sensors only: results are read without JAX
+        import numpy as np
+
+        h.update(repr(list(bands.names)).encode())
+        for leaf in jax.tree_util.tree_leaves(bands):
+            if hasattr(leaf, "shape"):
+                h.update(np.ascontiguousarray(np.asarray(leaf, float)).tobytes())
+    return h.hexdigest()[:16]
+
+
+def digests_path(records_path: Path) -> Path:
+    """The file beside `records_path` that records each band set's digest
+    (`band_digest`) the records were computed with: `records.bands.json` for
+    `records.jsonl.gz`."""
+    records_path = Path(records_path)
+    return records_path.with_name(records_path.name.split(".")[0] + ".bands.json")
 
 
 README = "README.md"

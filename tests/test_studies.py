@@ -105,3 +105,30 @@ def test_a_study_takes_its_variants_from_the_estimator_registry():
     study = next(iter(STUDIES.values()))
     with pytest.raises(ValueError, match="inversion-moon-mixx"):
         dataclasses.replace(study, estimators=("inversion-moon-mixx",))
+
+
+def test_resume_drops_only_the_band_sets_whose_bands_changed(tmp_path):
+    """The digests beside a study's records: a band set recorded with other
+    bands than now (a new recommendation) loses its records and reruns; the
+    others stay finished; the new digests are recorded."""
+    from bandopt.studies._units import load_records
+
+    path = tmp_path / "records.jsonl"
+    recs = [{"partition": p, "band_set": b, "x": 1}
+            for p in (0, 1) for b in ("recommended", "nightsat")]  # fmt: skip
+    path.write_text("".join(json.dumps(r) + "\n" for r in recs))
+    side = tmp_path / "records.bands.json"
+    side.write_text(json.dumps({"recommended": "old", "nightsat": "n"}))
+    kept, done = load_records(
+        path, keep=True, say=lambda m: None,
+        digests={"recommended": "new", "nightsat": "n"},
+    )  # fmt: skip
+    assert done == {(0, "nightsat"), (1, "nightsat")}
+    assert [r["band_set"] for r in kept] == ["nightsat", "nightsat"]
+    assert len(path.read_text().splitlines()) == 2
+    assert json.loads(side.read_text()) == {"recommended": "new", "nightsat": "n"}
+    _, done = load_records(path, keep=True, say=lambda m: None,
+                           digests={"recommended": "new", "nightsat": "n"})  # fmt: skip
+    assert done == {(0, "nightsat"), (1, "nightsat")}
+    assert load_records(path, keep=False, say=lambda m: None) == ([], set())
+    assert not side.exists()

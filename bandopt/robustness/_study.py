@@ -3,7 +3,6 @@ the resumable run (`bandopt.robustness`)."""
 
 import dataclasses
 import gzip
-import hashlib
 import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -16,7 +15,7 @@ from ..estimate import METRICS, lamp_truth
 from ..estimators import InversionConfig, fit_on_context
 from ..forward import dense_spectra
 from ..names import validate_method
-from ..results import RESULTS_DIR
+from ..results import RESULTS_DIR, band_digest, digests_path
 from ..search import get_context
 from ..sensor.reference import resolve_band_set
 from ..strict_json import strict_dumps
@@ -588,32 +587,6 @@ def _open(path: Path, mode: str):
     """A text file, gzip-compressed when its name ends in `.gz` (appending
     adds a gzip member; readers see one stream)."""
     return gzip.open(path, mode) if path.suffix == ".gz" else path.open(mode[0])
-
-
-def band_digest(bands) -> str:
-    """A short fingerprint of a band set's definition (its `to_dict()`
-    form, or a tabulated sensor's names and response arrays): equal digests,
-    equal responses."""
-    h = hashlib.sha256()
-    if hasattr(bands, "to_dict"):
-        d = {k: v for k, v in bands.to_dict().items() if k != "name"}
-        h.update(strict_dumps(d, indent=None).encode())
-    else:  # a tabulated reference sensor: its names and response arrays
-        import jax
-
-        h.update(repr(list(bands.names)).encode())
-        for leaf in jax.tree_util.tree_leaves(bands):
-            if hasattr(leaf, "shape"):
-                h.update(np.ascontiguousarray(np.asarray(leaf, float)).tobytes())
-    return h.hexdigest()[:16]
-
-
-def digests_path(records_path: Path) -> Path:
-    """The file beside `records_path` that records each band set's digest
-    (`band_digest`) the records were computed with: `records.bands.json` for
-    `records.jsonl.gz`."""
-    records_path = Path(records_path)
-    return records_path.with_name(records_path.name.split(".")[0] + ".bands.json")
 
 
 def load_records(

@@ -18,6 +18,7 @@ import numpy as np
 from .. import inversion as inv_mod
 from ..estimators import variant
 from ..folds import class_balanced_weights
+from ..results import band_digest, bands_record
 from ..search import get_context
 from ._text import by_intervals, held_out
 from ._units import (
@@ -248,7 +249,8 @@ def run(study: Study, argv=None) -> int:
     out = Path(args.out or study.out)
     out.mkdir(parents=True, exist_ok=True)
     rec_path = out / "records.jsonl"
-    records, done = load_records(rec_path, keep=args.resume, say=say)
+    digests = {name: band_digest(band_set(name)) for name in study.band_sets}
+    records, done = load_records(rec_path, keep=args.resume, say=say, digests=digests)
     t0 = time.time()
     units = [(p, b) for p in only for b in study.band_sets]
     for j, (p, name) in enumerate(units):
@@ -302,7 +304,7 @@ def run(study: Study, argv=None) -> int:
         "paired": paired,
         "unseen_types": unseen,
         "extra": study.extra(records) if study.extra else None,
-        "bands": {"recommended": "results/search/recommended_bands.json"},
+        "bands": {"recommended": bands_record(rec_bands)},
         "scored_lamps": "measured lamps only",
         "modelled_lamps_used": _planck_used(study),
     }

@@ -11,7 +11,11 @@ import time
 from pathlib import Path
 
 from ..provenance import add_allow_dirty, refuse_dirty_at_start, write_manifest
-from ..results import update_readme_section
+from ..results import (
+    digests_path,
+    recommended_band_set,
+    update_readme_section,
+)
 from ..sensor import BandSet
 from ..sensor.reference import resolve
 from ..strict_json import strict_dumps
@@ -21,7 +25,9 @@ CONTIGUOUS = "contiguous-"
 """Prefix of a band-set name "contiguous-N" (`band_set`)."""
 
 
-RECOMMENDED = Path("results/search/recommended_bands.json")
+RECOMMENDED = Path("results/recommendation.json")
+"""Where "recommended" comes from: the "spectral" key of the recommendation
+(the judge's choice after `make judge`, else the search's pick)."""
 
 
 def log(msg: str, study: str = "study") -> None:
@@ -29,14 +35,26 @@ def log(msg: str, study: str = "study") -> None:
     print(f"[{study} {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
 
 
-def load_records(rec_path: Path, *, keep: bool, say=None) -> tuple[list, set]:
+def load_records(
+    rec_path: Path, *, keep: bool, say=None, digests: dict | None = None
+) -> tuple[list, set]:
     """Records of a resumable run and its finished (partition, band set)
     units. Without `keep` the file is deleted first (results are
     recomputed, not replayed); an unreadable line (an interrupted write) is
-    dropped with a message through `say` (default `log`)."""
+    dropped with a message through `say` (default `log`).
+
+    `digests` (band set name -> `results.band_digest`): a band set whose
+    digest differs from the one recorded beside the records
+    (`results.digests_path`) changed since its units ran; its records are
+    dropped so its units rerun (the others are kept), and the current
+    digests are recorded."""
     say = log if say is None else say
+    side = digests_path(rec_path)
     if rec_path.is_file() and not keep:
         rec_path.unlink()
+        side.unlink(missing_ok=True)
+    old = json.loads(side.read_text()) if side.is_file() else {}
+    changed = {b for b, d in (digests or {}).items() if b in old and old[b] != d}
     records, done = [], set()
     if rec_path.is_file():
         for i, line in enumerate(rec_path.read_text().splitlines()):
@@ -45,19 +63,33 @@ def load_records(rec_path: Path, *, keep: bool, say=None) -> tuple[list, set]:
             except json.JSONDecodeError:
                 say(f"{rec_path}:{i + 1}: unreadable line dropped (interrupted write)")
                 continue
+            if r["band_set"] in changed:
+                continue
             records.append(r)
             done.add((r["partition"], r["band_set"]))
+        if changed:
+            say(f"band sets changed since their records: {sorted(changed)} (rerun)")
+            rec_path.write_text(
+                "".join(strict_dumps(r, indent=None) + "\n" for r in records)
+            )
+    if digests:
+        side.write_text(strict_dumps({**old, **digests}, indent=1) + "\n")
     return records, done
 
 
 def band_set(name: str):
-    """A study's band set by name: "recommended" (`make run`'s bands),
+    """A study's band set by name: "recommended" (the recommendation's
+    "spectral" bands),
     "contiguous-N" (N equal-width bands tiling the scenes' 380-900 nm,
     `BandSet.contiguous`) or a reference sensor."""
     if name == "recommended":
-        if not RECOMMENDED.is_file():
-            raise SystemExit(f"{RECOMMENDED}: missing; run `make run` first.")
-        return BandSet.from_json(RECOMMENDED)
+        bands = recommended_band_set("spectral", path=RECOMMENDED)
+        if bands is None:
+            raise SystemExit(
+                f"{RECOMMENDED}: no 'spectral' band set; run `make run` (and "
+                "`make judge`) first."
+            )
+        return bands
     if name.startswith(CONTIGUOUS):
         count = name[len(CONTIGUOUS) :]
         if not count.isdigit():

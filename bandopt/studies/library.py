@@ -45,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import inversion as inv_mod
+from ..results import bands_record
 from ..search import get_context
 from ._study import UNKNOWN_ONLY, figure
 from ._text import by_class, class_change_cells, diff_cells, fmt_cell, reference_lines
@@ -256,7 +257,7 @@ def summarise(records: list[dict], partitions: int) -> dict:
         ),
         "surface_knowledge": surface_knowledge(rows),
         "library_size": library_size(records),
-        "bands": {"recommended": "results/search/recommended_bands.json"},
+        "bands": {"recommended": bands_record(band_set("recommended"))},
         "scored_lamps": "measured lamps only",
         "modelled_lamps_used": True,
     }

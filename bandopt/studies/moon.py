@@ -32,7 +32,7 @@ import numpy as np
 
 from .. import inversion as inv_mod
 from ..provenance import add_allow_dirty, refuse_dirty_at_start, write_manifest
-from ..results import update_readme_section
+from ..results import bands_record, update_readme_section
 from ..search import PRESETS, get_context
 from ..strict_json import strict_dumps
 from ._study import unseen_records
@@ -222,7 +222,7 @@ def run(argv=None) -> int:
     summary = {
         "partitions": args.partitions,
         "unseen_types": unseen,
-        "bands": {"recommended": "results/search/recommended_bands.json"},
+        "bands": {"recommended": bands_record(band_set("recommended"))},
         "rows": rows,
         "paired": paired,
     }
