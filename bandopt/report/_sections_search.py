@@ -157,6 +157,23 @@ def band_count(ctx: Ctx) -> str:
     )
 
 
+def _judged_note(src) -> str:
+    """When the judge chose the recommendation: the Pareto pick below is the
+    search's, not the recommended design, and where the choice is."""
+    if not src.exists("recommendation.json"):
+        return ""
+    spectral = src.load("recommendation.json").get("spectral", {})
+    if spectral.get("chosen_by") != "judge":
+        return ""
+    return (
+        "<p>The pick below is the search's, on its surrogate and footing. The "
+        "recommended design is the one the shipped estimator judged best among "
+        "the search's candidates, "
+        + src.text("recommendation.json", "/spectral/set", shown=design_name)
+        + " (the verdict's table and the sensor section).</p>"
+    )
+
+
 @needs("search")
 def search_figures(ctx: Ctx) -> str:
     src = ctx.src
@@ -178,7 +195,8 @@ def search_figures(ctx: Ctx) -> str:
             "comparison)",
         )
         + src.image("search/stability.png",
-                  "Stability of the recommended bands over lamp resamples")
+                    "Stability of the search's pick over lamp resamples")
+        + _judged_note(src)
         + src.image("search/pareto.png",
                     "Pareto front: estimation error vs classification vs SNR")
         + (f"<p>Rule: {src.text(P, '/rule')}.</p>" if src.exists(P) else "")
