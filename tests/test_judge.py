@@ -112,6 +112,10 @@ def test_the_tiny_study_writes_a_verdict_that_agrees_with_its_rows(
     assert set(result["losses"]) == {"n2+pan a=0", "n3+pan a=0.5", "nightsat"}
     assert result["choice"]["chosen"] in ("n2+pan a=0", "n3+pan a=0.5")
     assert result["n_bands"] == {"n2+pan a=0": 3, "n3+pan a=0.5": 4, "nightsat": 6}
+    compare = json.loads((judge.SEARCH / "compare.json").read_text())
+    assert result["snr_median"] == {  # beside the loss: the instrument's side
+        k: compare["designs"][k]["snr_median"] for k in KEEP
+    }
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["versus"] == []  # peers: their pairs are in judge.json
     again = judge.losses(summary, result["truth_sd"], list(result["losses"]))

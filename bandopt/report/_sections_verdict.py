@@ -238,6 +238,11 @@ def _judge_table(src: Sources) -> str:
         if b == searched:
             mark.append("the search's pick")
         clean = src.num(JUDGE, f"/clean/{_ptr(b)}/level1_correct", digits=2)
+        snr = (
+            src.num(JUDGE, f"/snr_median/{_ptr(b)}", digits=2)
+            if b in res.get("snr_median", {})
+            else "-"
+        )
         rows.append(
             [
                 design_name(b)
@@ -249,6 +254,7 @@ def _judge_table(src: Sources) -> str:
                 src.num(JUDGE, base + "/estimation"),
                 src.num(JUDGE, base + "/classification"),
                 clean,
+                snr,
             ]
         )  # fmt: skip
     d = res["searched_minus_chosen"]["J"]
@@ -290,9 +296,11 @@ def _judge_table(src: Sources) -> str:
                 "estimation e",
                 "classification c",
                 "level-1 right, clean",
+                "median SNR at the limit (search)",
             ],
             rows,
         )
+        + (f"<p>{esc(res['snr_note'])}.</p>" if "snr_note" in res else "")
         + f"<p>{agree}</p>"
     )
 

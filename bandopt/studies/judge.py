@@ -482,6 +482,18 @@ def run(
         summary, compare["truth_sd"], [b for b, _ in band_sets], n_bands,
         compare["pareto"]["recommended"], REFERENCES,
     )  # fmt: skip
+    result["snr_median"] = {
+        k: compare["designs"][k].get("snr_median")
+        for k in result["losses"]
+        if k in compare.get("designs", {})
+    }
+    result["snr_note"] = (
+        "snr_median: the search's median SNR at the detection limit over the "
+        "design's free bands (compare.json); the loss J does not weigh it, so "
+        "the trade between a better estimate and a harder instrument is read "
+        "beside it (results/radiometry gives the recommended design's exposure "
+        "factor)"
+    )
     (out / "summary.json").write_text(strict_dumps(summary, indent=2) + "\n")
     (out / "judge.json").write_text(strict_dumps(result, indent=2) + "\n")
     figure(result, out / "judge.png")
