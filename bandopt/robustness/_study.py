@@ -16,7 +16,7 @@ from ..estimators import InversionConfig, fit_on_context
 from ..forward import dense_spectra
 from ..names import validate_method
 from ..results import RESULTS_DIR, band_digest, digests_path
-from ..search import get_context
+from ..search import get_context, perturbed_bands
 from ..sensor.reference import resolve_band_set
 from ..strict_json import strict_dumps
 
@@ -130,8 +130,6 @@ def as_built(bands, pert: Perturbation):
     an error naming it."""
     if not pert.sensor:
         return bands
-    from ..search import perturbed_bands
-
     names = list(bands.names)
     n = len(names)
     if pert.kind in BAND_KINDS:

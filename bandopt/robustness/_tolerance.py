@@ -19,6 +19,8 @@ Criterion (`MAX_ERROR_RATIO`, the search's): per metric, the class-balanced
 MAE (mean over partitions) at most 1.10x the nominal row's.
 """
 
+from pathlib import Path
+
 from ..estimate import METRICS
 from ..search import MAX_ERROR_RATIO
 from ..sensor.reference import resolve_band_set
@@ -241,8 +243,6 @@ def tolerance_study(band_sets=BAND_SETS[:1], **kwargs) -> RobustnessStudy:
 def write_tolerances(summary: dict, out, band_set: str | None = None) -> dict:
     """`tolerance.json`, `tolerance.png` and the intervals appended to the
     `README.md` of a finished tolerance scan in `out`; returns the JSON."""
-    from pathlib import Path
-
     out = Path(out)
     band_set = band_set or summary["rows"][0]["band_set"]
     tol = tolerance_intervals(summary, band_set)
