@@ -335,6 +335,8 @@ OUR_BANDS_USED = (
     ("robustness/summary.json", "bands", "recommended", "make robustness"),
     ("spatial/summary.json", "bands", None, "make spatial"),
     ("spatial/overlap.json", "band_definitions", None, "make spatial"),
+    ("spatial/full_moon/summary.json", "bands", None,
+     "python -m experiments.spatial --moon full --out results/spatial/full_moon"),
     ("robustness/tolerance/summary.json", "bands", "recommended",
      'make robustness ARGS="--config tolerance"'),
 )
