@@ -27,14 +27,22 @@ from (the perturbed one: background, noise and a second lamp are part of what
 the pixel holds); its types are the lamp's own (the majority lamp in a
 mixture). Records also keep the clean spectrum's truth.
 
-Modules: `_study` (the perturbations, partitions, `run_partition` scoring
-one (partition, band set) unit, the resumable `run_study`) and `_summary`
+Modules: `_study` (the perturbations, as-built sensors, partitions,
+`run_partition` scoring one (partition, band set) unit), `_run` (the
+resumable `run_study`: units kept unless their band set changed),
+`_tolerance` (the study configured as a filter tolerance scan) and `_summary`
 (`summarise`: records into rows, class-balanced means per partition, mean
 ± SD over partitions, ECE of the level-1 probabilities, paired differences
 against clean).
 """
 
 from ._outputs import readme_text as readme_text, write_outputs as write_outputs
+from ._run import (
+    band_digest as band_digest,
+    digests_path as digests_path,
+    load_records as load_records,
+    run_study as run_study,
+)
 from ._study import (
     BAND_SETS as BAND_SETS,
     CONFIDENCE_DECIMALS as CONFIDENCE_DECIMALS,
@@ -49,16 +57,12 @@ from ._study import (
     PerturbedLamps as PerturbedLamps,
     RobustnessStudy as RobustnessStudy,
     as_built as as_built,
-    band_digest as band_digest,
-    digests_path as digests_path,
     lamp_records as lamp_records,
-    load_records as load_records,
     mixture_partners as mixture_partners,
     partition as partition,
     perturbed_lamps as perturbed_lamps,
     product_extension as product_extension,
     run_partition as run_partition,
-    run_study as run_study,
     scene_spectra as scene_spectra,
     without_class as without_class,
 )
