@@ -304,8 +304,10 @@ def recommendation_entry(
         "intervals": "centre/fwhm_interval_nm: range (min-max) of the design "
         "over the search's lamp resamples (compare.json designs/<set>/"
         "stability); the PAN band is fixed",
-        "tolerances": "not scanned for this design (the search's tolerance "
-        "scan, results/search/tolerance.json, is of the search's own pick)",
+        "tolerances": "from the shipped estimator's own scan of this design, "
+        "results/robustness/tolerance/tolerance.json (make robustness "
+        'ARGS="--config tolerance"); the search\'s tolerance scan, '
+        "results/search/tolerance.json, is of the search's own pick",
         "rules": {
             "choice": ch["rule"],
             "loss": result["loss"],
@@ -323,7 +325,7 @@ def recommendation_entry(
             "set": result["searched"],
             "minus_chosen": result["searched_minus_chosen"],
         },
-        "estimator": "the shipped inversion (bandopt evaluate's defaults, "
+        "estimator": "shipped inversion (bandopt evaluate's defaults, "
         "estimators.InversionConfig), fitted per lamp partition on the "
         "training lamps; held-out measured lamps scored",
         "source": judge_json,
