@@ -97,7 +97,9 @@ def test_a_recommendation_file_is_a_band_set_source(tmp_path):
     update_recommendation(
         "spectral", {"set": "x", "band_set": bands.to_dict()}, results_dir=tmp_path
     )
-    got = resolve_band_set(tmp_path / "recommendation.json").bands
+    found = resolve_band_set(tmp_path / "recommendation.json")
+    assert found.key == "spectral" and resolve_band_set("nightsat").key is None
+    got = found.bands
     np.testing.assert_allclose(got.centre_nm, bands.centre_nm)
     np.testing.assert_allclose(got.fwhm_nm, bands.fwhm_nm)
     rec = bands_record(got)

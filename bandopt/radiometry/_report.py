@@ -146,14 +146,6 @@ def default_band_set():
     return reference_sensor(DEFAULT_BAND_SET)
 
 
-def _is_recommendation(path: Path) -> bool:
-    try:
-        data = json.loads(Path(path).read_text())
-    except (ValueError, UnicodeDecodeError, OSError):
-        return False
-    return isinstance(data, dict) and "spectral" in data and "bands" not in data
-
-
 def load_band_set(source: str):
     """A band set and its label from `source`: a reference sensor name, a
     band-set JSON file, or a recommendation JSON file (a top-level "spectral"
@@ -168,10 +160,8 @@ def load_band_set(source: str):
             "`make radiometry` (python -m experiments.radiometry --bands ours)."
         )
     found = resolve_band_set(source)
-    if found.entry is None and found.bands is not None and _is_recommendation(
-        found.path
-    ):
-        return found.bands, "ours", f"bands from {found.path} key 'spectral'"
+    if found.key is not None:  # a recommendation file
+        return found.bands, "ours", f"bands from {found.path} key '{found.key}'"
     if found.entry is None:
         return found.bands, found.label, f"band-set file {found.path}"
     return found.bands, found.label, found.entry.title

@@ -314,11 +314,13 @@ def reference_sensor(name: str) -> Bands:
 @dataclasses.dataclass(frozen=True)
 class BandSetSource:
     """A band set and where it came from: `entry` (a reference sensor) or
-    `path` (a band-set JSON file); the other is None."""
+    `path` (a band-set JSON file); the other is None. `key`: the key of a
+    recommendation file the bands were read from ("spectral"), else None."""
 
     bands: Bands
     entry: ReferenceSensor | None
     path: Path | None
+    key: str | None = None
 
     @property
     def label(self) -> str:
@@ -354,7 +356,7 @@ def resolve_band_set(source: str | os.PathLike) -> BandSetSource:
                 from ..results import recommended_band_set  # the one reader
 
                 return BandSetSource(
-                    recommended_band_set("spectral", path=path), None, path
+                    recommended_band_set("spectral", path=path), None, path, "spectral"
                 )
         return BandSetSource(BandSet.from_json(path), None, path)
     entry = resolve(str(source))
