@@ -186,6 +186,29 @@ def digests_path(records_path: Path) -> Path:
     return records_path.with_name(records_path.name.split(".")[0] + ".bands.json")
 
 
+def recorded_digests(records_path: Path) -> dict:
+    """The band digests recorded beside `records_path` ({} when none)."""
+    side = digests_path(records_path)
+    try:
+        return json.loads(side.read_text()) if side.is_file() else {}
+    except ValueError as err:
+        raise ValueError(f"{side}: not valid JSON ({err}).") from None
+
+
+def changed_band_sets(records_path: Path, digests: dict | None) -> set:
+    """Band sets of `digests` (name -> `band_digest`) recorded beside
+    `records_path` with another digest: their records are stale. A name
+    without a recorded digest is not counted as changed."""
+    old = recorded_digests(records_path)
+    return {b for b, d in (digests or {}).items() if b in old and old[b] != d}
+
+
+def record_digests(records_path: Path, digests: dict) -> None:
+    """Record `digests` beside `records_path`, keeping other names'."""
+    merged = {**recorded_digests(records_path), **digests}
+    digests_path(records_path).write_text(strict_dumps(merged, indent=1) + "\n")
+
+
 README = "README.md"
 """The results index: one linked line per experiment's page."""
 SECTIONS = "sections"

@@ -7,7 +7,12 @@ import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from ..results import band_digest, digests_path
+from ..results import (
+    band_digest,
+    changed_band_sets,
+    digests_path,
+    record_digests,
+)
 from ..sensor.reference import resolve_band_set
 from ..strict_json import strict_dumps
 from ._study import RobustnessStudy, partition, perturbed_lamps, run_partition
@@ -38,11 +43,7 @@ def load_records(
         path.unlink(missing_ok=True)
         side.unlink(missing_ok=True)
         return [], set()
-    try:
-        old = json.loads(side.read_text()) if side.is_file() else {}
-    except ValueError as err:
-        raise ValueError(f"{side}: not valid JSON ({err}).") from None
-    changed = {b for b, d in (digests or {}).items() if b in old and old[b] != d}
+    changed = changed_band_sets(path, digests)
     recs = []
     with _open(path, "rt") as fh:
         try:
@@ -82,9 +83,7 @@ def run_study(
     bands = {label: resolve_band_set(src).bands for label, src in study.band_sets}
     digests = {label: band_digest(b) for label, b in bands.items()}
     records, done = load_records(records_path, study, resume, digests)
-    side = digests_path(records_path)
-    old = json.loads(side.read_text()) if side.is_file() else {}
-    side.write_text(strict_dumps({**old, **digests}, indent=1) + "\n")
+    record_digests(records_path, digests)
     todo = range(study.partitions) if partitions is None else partitions
     for p in todo:
         if all((p, b) in done for b in bands):

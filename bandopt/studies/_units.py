@@ -12,8 +12,10 @@ from pathlib import Path
 
 from ..provenance import add_allow_dirty, refuse_dirty_at_start, write_manifest
 from ..results import (
+    changed_band_sets,
     digests_path,
     recommended_band_set,
+    record_digests,
     update_readme_section,
 )
 from ..sensor import BandSet
@@ -53,8 +55,7 @@ def load_records(
     if rec_path.is_file() and not keep:
         rec_path.unlink()
         side.unlink(missing_ok=True)
-    old = json.loads(side.read_text()) if side.is_file() else {}
-    changed = {b for b, d in (digests or {}).items() if b in old and old[b] != d}
+    changed = changed_band_sets(rec_path, digests)
     records, done = [], set()
     if rec_path.is_file():
         for i, line in enumerate(rec_path.read_text().splitlines()):
@@ -73,7 +74,7 @@ def load_records(
                 "".join(strict_dumps(r, indent=None) + "\n" for r in records)
             )
     if digests:
-        side.write_text(strict_dumps({**old, **digests}, indent=1) + "\n")
+        record_digests(rec_path, digests)
     return records, done
 
 
