@@ -136,3 +136,40 @@ def test_cross_validate_runs_the_loco_estimator(case, monkeypatch):
     for lamp in a:  # same point estimates: same errors
         for m in ("LER", "G", "CCT"):
             assert getattr(a[lamp], m) == getattr(b[lamp], m)
+
+
+@pytest.fixture(scope="module")
+def flagged(case):
+    lamps, row_lamp, rad, train, _test, inner, w = case
+    return inv_mod.fit_inversion(
+        rad, row_lamp, lamps, train, inner, w, inv_mod.Conditions.clear(GRID),
+        basis=inv_mod._basis(GRID), calibration="flagged",
+    )  # fmt: skip
+
+
+def test_flagged_pixels_get_the_held_out_classes_intervals(case, pair, flagged):
+    """`calibration="flagged"`: the factors of held-out lamps for pixels the
+    prior explains and those of held-out classes for pixels flagged
+    `unexplained`, pixel by pixel; the estimates and flags are those of the
+    other two calibrations."""
+    _lamps, row_lamp, rad, _train, test, *_ = case
+    by_lamps, by_classes, _ = pair
+    assert flagged.diagnostics["calibration"] == "flagged"
+    np.testing.assert_allclose(flagged.conformal, by_lamps.conformal)
+    np.testing.assert_allclose(flagged.conformal_unexplained, by_classes.conformal)
+    rows = np.flatnonzero(np.isin(row_lamp, test))
+    a, b, f = (x.predict(rad[rows]) for x in (by_lamps, by_classes, flagged))
+    np.testing.assert_array_equal(f.estimate, a.estimate)
+    np.testing.assert_array_equal(f.unexplained, a.unexplained)
+    # every test pixel, once as explained and once as flagged: a threshold
+    # of +inf explains all, of -inf flags all (the p-value folds dropped)
+    import dataclasses
+
+    for thr, want in ((np.inf, a), (-np.inf, b)):
+        g = dataclasses.replace(flagged, threshold=thr, flag_folds=())
+        got = g.predict(rad[rows])
+        assert bool(np.all(got.unexplained)) == (thr < 0)
+        np.testing.assert_allclose(got.interval90, want.interval90, equal_nan=True)
+    mixed = f.unexplained
+    if mixed.any() and (~mixed).any():
+        np.testing.assert_allclose(f.interval90[~mixed], a.interval90[~mixed])

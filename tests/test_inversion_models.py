@@ -411,6 +411,7 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
     for n, intervals, mix, sigma, unit, shifts, planck in (
         (0, "known-types", 0, "joint", "half-width", "off", "on"),
         (4, "any-type", 50, "per-metric", "narrowest", "on", "off"),
+        (0, "by-flag", 0, "joint", "half-width", "off", "on"),
     ):
         args = types.SimpleNamespace(
             estimator="inversion",
@@ -462,9 +463,11 @@ def test_evaluate_passes_the_option_through_and_describes_the_prior(case, monkey
                 "-2.5, +2.5, +5, +7.5, +10 nm" in desc) == (shifts == "on")  # fmt: skip
         assert ("with 6 pairwise blends of two measured lamps" in desc) == bool(mix)
         assert seen["row_moon"] is moon  # told the Moon, not fitted
-        want = {"known-types": "lamps", "any-type": "classes"}[intervals]
-        assert seen["calibration"] == want
-        assert ("held out in turn" in desc) == (intervals == "any-type")
+        want = {"known-types": "lamps", "any-type": "classes"}
+        assert seen["calibration"] == want.get(intervals, "flagged")
+        assert ("held out in turn" in desc) == (intervals != "known-types")
+        said = "and on library classes held out in turn for pixels flagged unexp"
+        assert (said in desc) == (intervals == "by-flag")
         if n:
             assert "3 measured library lamps and 4 modelled lamps" in desc
             assert "4 per class of mercury" in desc
@@ -524,9 +527,9 @@ def test_evaluate_json_says_how_many_modelled_lamps(
     assert main([*argv, "--mixtures", "0"]) == 0
     assert json.loads(capsys.readouterr().out)["mixtures_per_class"] == 0
     assert mixtures == [0]
-    assert main(argv) == 0  # the default: calibrated for unseen types too
+    assert main(argv) == 0  # the default: unseen types' for flagged pixels
     out = json.loads(capsys.readouterr().out)
-    assert out["scene"]["intervals"] == "any-type"
+    assert out["scene"]["intervals"] == "by-flag"
     one = [0.03, inv_mod.SIGMA_FLOOR]
     assert out["sigma_rel"] == {"LER": one, "G": one, "CCT": one, "types_and_flag": one}
     assert out["scene"]["interval_unit"] == {"LER": 0.0, "G": 0.0, "CCT": 0.0}

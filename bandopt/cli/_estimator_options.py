@@ -51,7 +51,7 @@ TM30_DEFAULT = "off"
 SIGMA_RULES = {"per-metric": "per-metric", "joint": "error"}
 """`--sigma` choice -> `bandopt.inversion.fit_inversion(sigma_rule=)`."""
 
-INTERVALS = {"known-types": "lamps", "any-type": "classes"}
+INTERVALS = {"by-flag": "flagged", "known-types": "lamps", "any-type": "classes"}
 """`--intervals` choice -> `bandopt.inversion.fit_inversion(calibration=)`."""
 
 INTERVAL_UNITS = {"narrowest": "grid", "half-width": (0.0,)}
@@ -96,7 +96,7 @@ OPTIONS = {
     "tm30": ("--tm30", TM30_DEFAULT, "tm30", "the TM-30 lamps go into the prior of"),
     "peak_shifts": ("--peak-shifts", PEAK_SHIFTS_DEFAULT, "peak_shifts_nm",
                     "shifted LEDs go into the prior of"),
-    "intervals": ("--intervals", "any-type", "calibration", "for"),
+    "intervals": ("--intervals", "by-flag", "calibration", "for"),
 }  # fmt: skip
 """The estimator options of `bandopt evaluate`: each sets one field of an
 estimator's configuration (`bandopt.estimators`); given (not at its
@@ -397,14 +397,14 @@ def add_estimator_options(p):
     p.add_argument(
         "--intervals",
         choices=tuple(INTERVALS),
-        default="any-type",
+        default="by-flag",
         help="inversion only: what its 90 %% intervals are calibrated for. "
-        "any-type (default): lamp types the library lacks too (conformal factors "
-        "from each library class held out in turn; measured: 0.83-0.96 of "
-        "held-out classes' true values inside, 0.95-0.97 for new lamps of known "
-        "types); known-types: new lamps of the library's types only (factors "
-        "from held-out lamps; narrower: 0.92-0.93 for known types, 0.73-0.82 "
-        "for held-out classes; results/estimate_moon)",
+        "by-flag (default): a pixel the library explains gets intervals "
+        "calibrated on held-out lamps of the library's types, a pixel flagged "
+        "unexplained those calibrated on library classes held out in turn; "
+        "any-type: every pixel the latter (wide: 0.97-0.98 of new lamps of "
+        "known types inside); known-types: every pixel the former "
+        "(results/robustness gives the coverage and widths of the default)",
     )
     p.add_argument(
         "--interval-unit",

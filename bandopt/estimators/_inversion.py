@@ -154,7 +154,9 @@ class FittedInversion:
         """The prior's and the intervals' fields of the evaluate JSON."""
         m, c = self.model, self.config
         return {
-            "intervals": "known-types" if c.calibration == "lamps" else "any-type",
+            "intervals": {"lamps": "known-types", "classes": "any-type"}.get(
+                c.calibration, "by-flag"
+            ),
             "interval_unit": _unit_json(m),
             "mixtures_per_class": c.mixtures,
             "cross_mixtures_per_class_pair": c.cross_mixtures,
@@ -239,11 +241,18 @@ def describe(inv, config: InversionConfig, surface_mode: str) -> str:
         f"own; your scene: moonless), not fitted; sigma_rel {_sigma_text(inv)}, "
         "90 % "
         + (
-            "intervals split-conformal on lamp-grouped folds (calibrated for "
-            "new lamps of the library's types)"
-            if config.calibration == "lamps"
-            else "intervals split-conformal on library classes held out in "
-            "turn (calibrated for lamp types the library lacks too)"
+            {
+                "lamps": "intervals split-conformal on lamp-grouped folds "
+                "(calibrated for new lamps of the library's types)",
+                "classes": "intervals split-conformal on library classes held "
+                "out in turn (calibrated for lamp types the library lacks too)",
+            }.get(
+                config.calibration,
+                "intervals split-conformal on lamp-grouped folds for pixels "
+                "the library explains (calibrated for new lamps of its types) "
+                "and on library classes held out in turn for pixels flagged "
+                "unexplained (calibrated for lamp types it lacks)",
+            )
         )
         + f", in units of {_unit_text(inv)}"
         + _probability_text(inv)

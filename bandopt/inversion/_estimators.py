@@ -23,8 +23,10 @@ class InversionOptions:
     - `planck`: modelled incandescent spectra (Planck's law) in the prior.
     - `tm30`: the IES TM-30-15 lamps in the prior (train, never score).
     - `sigma_rule`, `floor_grid`: how the band-error model is chosen.
-    - `calibration`: interval calibration on held-out lamps ("lamps") or on
-      each training class held out in turn ("classes": new types too).
+    - `calibration`: interval calibration on held-out lamps ("lamps"), on
+      each training class held out in turn ("classes": new types too), or
+      the first for pixels the prior explains and the second for pixels
+      flagged `unexplained` ("flagged").
     - `interval_offsets`: candidate interval offsets (the narrowest wins).
     - `moon_told`: the Moon's brightness of every scene is known (from the
       acquisition's time and place), so it is not fitted.
@@ -42,7 +44,7 @@ class InversionOptions:
     tm30: bool = False
     sigma_rule: str = "per-metric"
     floor_grid: tuple[float, ...] = FLOOR_GRID
-    calibration: str = "classes"
+    calibration: str = "flagged"
     interval_offsets: tuple[float, ...] = INTERVAL_OFFSET_GRID
     moon_told: bool = True
     modelled_per_class: int = 0

@@ -66,6 +66,8 @@ class Inversion:
     flag_noise: tuple[float, float] | None = None
     flag_folds: tuple[FlagFold, ...] = ()
     flag_level: float = 0.05
+    conformal_unexplained: np.ndarray | None = None
+    interval_offset_unexplained: tuple[float, ...] = ()
 
     @property
     def offsets(self) -> np.ndarray:
@@ -73,6 +75,13 @@ class Inversion:
         scaling (3,), model space (`fit_inversion(interval_offsets=)`; zeros
         by default)."""
         return np.asarray(self.interval_offset or (0.0,) * 3, float)
+
+    @property
+    def offsets_unexplained(self) -> np.ndarray:
+        """`offsets` of the intervals of pixels flagged `unexplained` when
+        they have their own (`conformal_unexplained`, `fit_inversion(
+        calibration="flagged")`)."""
+        return np.asarray(self.interval_offset_unexplained or (0.0,) * 3, float)
 
     def with_interval_offset(self, fraction: float) -> "Inversion":
         """This inversion with the intervals of one candidate offset of its
@@ -87,10 +96,23 @@ class Inversion:
                 f"{sorted(cands, key=float)} (fit_inversion(interval_offsets=))."
             )
         c = cands[key]
+        u = self.diagnostics.get("interval_candidates_unexplained", {}).get(key)
         return dataclasses.replace(
             self,
             conformal=np.array([c["conformal"][m] for m in METRICS]),
             interval_offset=tuple(float(c["offset"][m]) for m in METRICS),
+            **(
+                {}
+                if u is None
+                else {
+                    "conformal_unexplained": np.array(
+                        [u["conformal"][m] for m in METRICS]
+                    ),
+                    "interval_offset_unexplained": tuple(
+                        float(u["offset"][m]) for m in METRICS
+                    ),
+                }
+            ),
         )
 
     def restricted(self, keep) -> "Inversion":
@@ -502,12 +524,6 @@ def _result(
     mean, rng, p_cct = _metrics_per_posterior(
         [post] * 3 if by_metric is None else by_metric, inv.prior
     )
-    mean, lo, hi = _widened(mean, rng, inv.conformal, inv.offsets)
-    est = mean.copy()
-    est[:, 2] = np.where(p_cct >= 0.5, MIRED / mean[:, 2], np.nan)
-    # mired interval [lo, hi] is CCT [MIRED/hi, MIRED/lo]
-    iv = np.stack([lo, hi], axis=-1)
-    iv[:, 2] = np.stack([MIRED / hi[:, 2], MIRED / lo[:, 2]], axis=-1)
     unexplained = (misfit if flag_misfit is None else flag_misfit) > inv.threshold
     if p_known is not None:
         p_known = np.asarray(p_known, float)
@@ -516,6 +532,21 @@ def _result(
         )
     else:
         p_known = np.full(unexplained.shape, np.nan)
+    mean_w, lo, hi = _widened(mean, rng, inv.conformal, inv.offsets)
+    if inv.conformal_unexplained is not None and np.any(unexplained):
+        # the prior cannot explain these pixels: intervals calibrated on
+        # lamp types held out of it (fit_inversion(calibration="flagged"))
+        _, lo_u, hi_u = _widened(
+            mean, rng, inv.conformal_unexplained, inv.offsets_unexplained
+        )
+        u = np.asarray(unexplained, bool)[:, None]
+        lo, hi = np.where(u, lo_u, lo), np.where(u, hi_u, hi)
+    mean = mean_w
+    est = mean.copy()
+    est[:, 2] = np.where(p_cct >= 0.5, MIRED / mean[:, 2], np.nan)
+    # mired interval [lo, hi] is CCT [MIRED/hi, MIRED/lo]
+    iv = np.stack([lo, hi], axis=-1)
+    iv[:, 2] = np.stack([MIRED / hi[:, 2], MIRED / lo[:, 2]], axis=-1)
     l1, l2 = (list(x) for x in inv.type_labels())
     m2 = np.array([[x == c for c in l2] for x in inv.prior.level2], float)
     p2 = post @ m2
