@@ -315,6 +315,14 @@ def test_interval_section_gives_coverage_and_width_from_the_robustness_suite(tmp
             assert (f"/rows/{i}/{col}" in got) == shown, (i, col)
             if shown:
                 assert float(got[f"/rows/{i}/{col}"]) == pytest.approx(r[col])
+    assert "Intervals by the flag" not in text  # no manifest: not said
+    for cal, words in (("flagged", "Intervals by the flag"),
+                       ("classes", "held out in turn for every pixel")):  # fmt: skip
+        manifest = json.loads((RESULTS / "robustness/manifest.json").read_text())
+        manifest["config"]["config"]["calibration"] = cal
+        (res_dir / "robustness/manifest.json").write_text(json.dumps(manifest))
+        out = tmp_path / f"out-{cal}"
+        assert words in build_report(res_dir, out, strict=False).path.read_text()
     (res_dir / "robustness/summary.json").unlink()
     assert "robustness" in build_report(res_dir, tmp_path / "o2", strict=False).missing
 

@@ -203,6 +203,30 @@ def _interval_cells(src, i: int, row: dict) -> list[str]:
     return cells
 
 
+CALIBRATION_WORDS = {
+    "flagged": "Intervals by the flag (<code>--intervals by-flag</code>, the "
+    "default): calibrated on held-out lamps of the library's types for pixels "
+    "the prior explains, on library classes held out in turn for pixels "
+    "flagged unexplained.",
+    "classes": "Intervals calibrated on library classes held out in turn for "
+    "every pixel (<code>--intervals any-type</code>).",
+    "lamps": "Intervals calibrated on held-out lamps of the library's types "
+    "for every pixel (<code>--intervals known-types</code>).",
+}
+"""What the robustness run's interval calibration (its manifest's
+`config.config.calibration`) means, for the intervals section."""
+
+
+def _calibration_words(src) -> str:
+    """The calibration the robustness run's estimator used, in words (none
+    without its manifest)."""
+    rel = "robustness/manifest.json"
+    if not src.path(rel).is_file():
+        return ""
+    cfg = src.load(rel).get("config", {}).get("config", {})
+    return CALIBRATION_WORDS.get(cfg.get("calibration"), "")
+
+
 @needs("robustness")
 def inversion(ctx: Ctx) -> str:
     """Coverage and median width of the 90 % intervals of `bandopt
@@ -225,8 +249,9 @@ def inversion(ctx: Ctx) -> str:
         + src.num(INTERVALS, "/partitions", digits=1)
         + " lamp partitions: coverage is the class-balanced share of pixels whose "
         "truth lies inside (target 0.85-0.95; mean ± SD over partitions), width "
-        "the class-balanced median of each lamp's median interval width. The "
-        "perturbed rows and their pairing with the clean ones are in "
+        "the class-balanced median of each lamp's median interval width. "
+        + _calibration_words(src)
+        + " The perturbed rows and their pairing with the clean ones are in "
         + src.link("robustness/README.md", "results/robustness")
         + ".</p>"
         + table(header, clean, caption="Every band set, clean spectra")

@@ -83,8 +83,9 @@ def readme_text(summary: dict) -> str:
             "",
             "Unseen types: `-loco` calibrates the 90 % intervals on training "
             "classes held out in turn instead of held-out lamps (`bandopt "
-            "evaluate`'s default, `--intervals any-type`, with the blends: "
-            "`inversion-moon-mix-loco`); the estimates are the same.",
+            "evaluate --intervals any-type`, with the blends: "
+            "`inversion-moon-mix-loco`; its default `by-flag` does so for "
+            "pixels flagged unexplained); the estimates are the same.",
         ]
     lines += unseen_lines(unseen)
     return "\n".join(lines) + "\n"
