@@ -6,7 +6,7 @@ incandescent, lps) right for >= 90 % of lamps (`GOAL`). This measures what
 is attainable at all with a classifier trained on the library's other
 types: the bare lamp spectrum, without surface, atmosphere, Moon or noise,
 binned to 5, 10, 20 and 50 nm, and the noise-free values of the recommended
-bands (`results/search/recommended_bands.json`) of the same spectra; each
+bands (`results/recommendation.json`) of the same spectra; each
 fed to a 1-nearest-neighbour classifier and to logistic regression (C = 1
 and C = 0.01, classes balanced), trained on the measured lamps of the other
 scored classes (`bandopt.studies._ceiling`). A class whose family has no
