@@ -727,6 +727,12 @@ def test_a_study_made_with_other_bands_than_the_recommendation_is_stale(tmp_path
     summary.write_text(json.dumps({"bands": {"recommended": moved}}))
     (msg,) = stale()
     assert "robustness/summary.json ran with bands" in msg and "make robustness" in msg
+    summary.write_text(json.dumps({"bands": {"recommended": bands}}))
+    (tmp_path / "estimate_moon").mkdir()
+    moon = tmp_path / "estimate_moon" / "summary.json"
+    moon.write_text(json.dumps({"bands": {"recommended": moved}}))
+    (msg,) = stale()
+    assert "estimate_moon/summary.json ran with" in msg and "estimate-moon" in msg
 
 
 def test_a_judged_design_shows_the_shipped_estimators_tolerances(small, tmp_path):

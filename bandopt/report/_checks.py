@@ -339,6 +339,9 @@ OUR_BANDS_USED = (
      "python -m experiments.spatial --moon full --out results/spatial/full_moon"),
     ("robustness/tolerance/summary.json", "bands", "recommended",
      'make robustness ARGS="--config tolerance"'),
+    ("estimate_moon/summary.json", "bands", "recommended", "make estimate-moon"),
+    ("estimate_defaults/summary.json", "bands", "recommended",
+     "make study NAME=estimate-defaults ARGS=--resume"),
 )
 """Results made with our bands, where each records them (file, field, key
 within it or None) and what re-makes it."""
