@@ -26,7 +26,7 @@ run: $(STAMP)  ## set up, then the default band search + comparison with referen
 	$(BIN)/python -m experiments.search run $(ARGS)
 
 test: $(STAMP)  ## set up, then the fast test suite (no 6S, no long sweeps, no Monte Carlo)
-	$(BIN)/python -m pytest -q -n 2 --dist loadfile
+	$(BIN)/python -m pytest -q
 
 test-slow: $(STAMP)  ## the tests marked slow (6S runs, Monte Carlo renders)
 	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test,atmos,render]'

@@ -2,16 +2,6 @@ import os
 
 
 os.environ.setdefault("MPLBACKEND", "Agg")
-if os.environ.get("PYTEST_XDIST_WORKER"):
-    # one of `make test`'s parallel workers (pytest-xdist, one per core):
-    # XLA's matmuls single-threaded in each, as in the band search's spawned
-    # workers (bandopt.search._sweep.WORKER_XLA_FLAGS), so the workers do
-    # not fight over the cores
-    from bandopt.search._sweep import WORKER_XLA_FLAGS
-
-    flags = os.environ.get("XLA_FLAGS", "")
-    if WORKER_XLA_FLAGS not in flags:
-        os.environ["XLA_FLAGS"] = f"{flags} {WORKER_XLA_FLAGS}".strip()
 
 import jax
 import pytest
