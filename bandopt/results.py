@@ -195,12 +195,44 @@ def recorded_digests(records_path: Path) -> dict:
         raise ValueError(f"{side}: not valid JSON ({err}).") from None
 
 
+DATA_KEY = "lamps and data"
+"""The entry of a digests file (`digests_path`) that holds `data_digest`:
+what every record depends on besides its bands."""
+
+
+def data_digest() -> str:
+    """A short fingerprint of what every unit's records depend on besides
+    its band set: the package data files (`provenance.data_versions`) and
+    the lamp library as built (ids, classes, wavelengths and values, with
+    its NIR extension). Stored beside records under `DATA_KEY`, so a resume
+    after a change of the lamp data recomputes every unit instead of
+    pairing new units with old ones."""
+    import numpy as np
+
+    from .datasets.lamps import library
+    from .provenance import data_versions
+
+    lib = library()
+    h = hashlib.sha256()
+    h.update(strict_dumps(data_versions(), indent=None).encode())
+    h.update(repr([(r.id, r.level2) for r in lib.records]).encode())
+    for a in (lib.wavelength_nm, lib.values):
+        h.update(np.ascontiguousarray(np.asarray(a, float)).tobytes())
+    return h.hexdigest()[:16]
+
+
 def changed_band_sets(records_path: Path, digests: dict | None) -> set:
     """Band sets of `digests` (name -> `band_digest`) recorded beside
     `records_path` with another digest: their records are stale. A name
-    without a recorded digest is not counted as changed."""
+    without a recorded digest is not counted as changed. When `digests`
+    and the recorded ones both hold `DATA_KEY` (`data_digest`) and it
+    differs, every band set, recorded or asked for, is stale."""
     old = recorded_digests(records_path)
-    return {b for b, d in (digests or {}).items() if b in old and old[b] != d}
+    new = dict(digests or {})
+    data = new.pop(DATA_KEY, None)
+    if data is not None and old.get(DATA_KEY, data) != data:
+        return (set(new) | set(old)) - {DATA_KEY}
+    return {b for b, d in new.items() if b in old and old[b] != d}
 
 
 def record_digests(records_path: Path, digests: dict) -> None:

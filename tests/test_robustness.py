@@ -164,7 +164,9 @@ def test_resume_reruns_a_band_set_whose_bands_changed(run, tmp_path):
     assert side.name == "records.bands.json"
     recorded = json.loads(side.read_text())
     bands = resolve_band_set(STUDY.band_sets[0][1]).bands
-    assert recorded == {"recommended": rb.band_digest(bands)}
+    from bandopt.results import DATA_KEY, data_digest
+
+    assert recorded == {"recommended": rb.band_digest(bands), DATA_KEY: data_digest()}
     copy = tmp_path / "records.jsonl"
     copy.write_text(path.read_text())
     rb.digests_path(copy).write_text(side.read_text())
@@ -172,6 +174,9 @@ def test_resume_reruns_a_band_set_whose_bands_changed(run, tmp_path):
     assert done == {(0, "recommended")} and len(kept) == len(records)
     other = resolve_band_set("nightsat").bands
     assert rb.band_digest(other) != recorded["recommended"]
+    older = {**recorded, DATA_KEY: "older lamp data"}
+    assert rb.load_records(copy, STUDY, True, older)[1] == set()  # all rerun
+    copy.write_text(path.read_text())
     kept, done = rb.load_records(
         copy, STUDY, True, {"recommended": rb.band_digest(other)}
     )

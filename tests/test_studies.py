@@ -132,3 +132,30 @@ def test_resume_drops_only_the_band_sets_whose_bands_changed(tmp_path):
     assert done == {(0, "nightsat"), (1, "nightsat")}
     assert load_records(path, keep=False, say=lambda m: None) == ([], set())
     assert not side.exists()
+
+
+def test_resume_after_a_change_of_the_lamp_data_reruns_every_unit(tmp_path):
+    """With the lamp data's fingerprint (`results.DATA_KEY`) beside the
+    records, a resume after it changed reruns every band set, not only
+    those whose bands changed; a file without it (written before it was
+    recorded) is read as before and gets it."""
+    from bandopt.results import DATA_KEY, data_digest
+    from bandopt.studies._units import load_records
+
+    path = tmp_path / "records.jsonl"
+    recs = [{"partition": p, "band_set": b, "x": 1}
+            for p in (0, 1) for b in ("recommended", "nightsat")]  # fmt: skip
+    side = tmp_path / "records.bands.json"
+    now = {"recommended": "r", "nightsat": "n", DATA_KEY: data_digest()}
+    for recorded, want in (
+        ({"recommended": "r", "nightsat": "n"}, 4),  # before: kept, recorded
+        ({"recommended": "r", "nightsat": "n", DATA_KEY: now[DATA_KEY]}, 4),
+        ({"recommended": "r", "nightsat": "n", DATA_KEY: "older data"}, 0),
+    ):
+        path.write_text("".join(json.dumps(r) + "\n" for r in recs))
+        side.write_text(json.dumps(recorded))
+        _, done = load_records(path, keep=True, say=lambda m: None, digests=now)
+        assert len(done) == want, recorded
+        assert json.loads(side.read_text()) == now
+    assert data_digest() == now[DATA_KEY]  # deterministic
+    assert len(now[DATA_KEY]) == 16

@@ -8,8 +8,10 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from ..results import (
+    DATA_KEY,
     band_digest,
     changed_band_sets,
+    data_digest,
     digests_path,
     record_digests,
 )
@@ -82,6 +84,7 @@ def run_study(
     returns all records. `partitions`: a subset to compute (default all)."""
     bands = {label: resolve_band_set(src).bands for label, src in study.band_sets}
     digests = {label: band_digest(b) for label, b in bands.items()}
+    digests[DATA_KEY] = data_digest()
     records, done = load_records(records_path, study, resume, digests)
     record_digests(records_path, digests)
     todo = range(study.partitions) if partitions is None else partitions

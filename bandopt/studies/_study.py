@@ -18,7 +18,7 @@ import numpy as np
 from .. import inversion as inv_mod
 from ..estimators import variant
 from ..folds import class_balanced_weights
-from ..results import band_digest, bands_record
+from ..results import DATA_KEY, band_digest, bands_record, data_digest
 from ..search import get_context
 from ._text import by_intervals, held_out
 from ._units import (
@@ -250,6 +250,7 @@ def run(study: Study, argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     rec_path = out / "records.jsonl"
     digests = {name: band_digest(band_set(name)) for name in study.band_sets}
+    digests[DATA_KEY] = data_digest()
     records, done = load_records(rec_path, keep=args.resume, say=say, digests=digests)
     t0 = time.time()
     units = [(p, b) for p in only for b in study.band_sets]
