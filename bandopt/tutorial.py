@@ -13,8 +13,8 @@ The steps of docs/tutorial.rst, end to end, in a few minutes on 2 cores
    the files were yours. Replace `--lamps` by your own files to use yours.
 2. **Evaluate three sensors** with the command line, as a user would:
    `bandopt evaluate --bands NAME|FILE --lamps FILE... --json` for VIIRS DNB,
-   SDGSAT-1 and the optimised band set (free bands + a fixed panchromatic
-   band) of the stability study (`results/search/recommended_bands.json`).
+   SDGSAT-1 and the recommended band set (free bands + a fixed panchromatic
+   band; the judge's choice, `results/recommendation.json`).
    The estimator is the physics-based inversion (`--estimator inversion`)
    when this version's `bandopt evaluate --help` offers it, else the ridge
    regression (a version without `--estimator`); the output says which was
@@ -54,12 +54,13 @@ their usable measured range (380-900 nm; 380-780 nm for lspdd_2469, whose
 near-infrared the library rejects as clipped, so evaluate extends it)."""
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
-"""The committed results: the optimised bands, the report's input."""
+"""The committed results: the recommended bands (`recommendation.json`,
+its `spectral` entry), the report's input."""
 
 SENSORS = {
     "viirs-dnb": "viirs-dnb",
     "sdgsat-1": "sdgsat-1",
-    "optimised": str(RESULTS / "search" / "recommended_bands.json"),
+    "optimised": str(RESULTS / "recommendation.json"),
 }
 """The three sensors evaluated: name -> `bandopt evaluate --bands` value."""
 

@@ -58,7 +58,7 @@ def test_tutorial_doc_matches_the_script():
     doc = (DOCS / "tutorial.rst").read_text()
     for lamp in tutorial.LAMPS:
         assert lamp in doc
-    for bands in ("viirs-dnb", "sdgsat-1", "results/search/recommended_bands.json"):
+    for bands in ("viirs-dnb", "sdgsat-1", "results/recommendation.json"):
         assert bands in doc
     assert "BANDOPT_LSPDD=0" in doc and "--estimator inversion" in doc
     script = Path(tutorial.__file__).read_text()
@@ -69,9 +69,9 @@ TUTORIAL_QUOTES = (
     # (the quote, its number or word as a group; the results file; what that
     # file says the group must be)
     (
-        r"(\d+) free bands \+ a fixed panchromatic band",
-        "search/recommended_bands.json",
-        lambda d: sum(b["name"].upper() != "PAN" for b in d["bands"]),
+        r"(\d+) free bands \+ a fixed panchromatic",
+        "recommendation.json",
+        lambda d: sum(b["name"].upper() != "PAN" for b in d["spectral"]["bands"]),
     ),
     (
         r"on the (\d+) lamps the search scored",
@@ -79,9 +79,9 @@ TUTORIAL_QUOTES = (
         lambda d: d["context"]["n_lamps"],
     ),
     (
-        r"chosen\s+with the (\w+) as the judge",
-        "search/compare.json",
-        lambda d: d["estimator"]["scorer"],
+        r"chosen\s+by the shipped (\w+) as the judge",
+        "recommendation.json",
+        lambda d: d["spectral"]["estimator"].split()[1],
     ),
 )
 """Every result the tutorial quotes, with the file it comes from."""
@@ -158,7 +158,7 @@ def test_tutorial_number_check_can_fail():
     caught, named with the file they contradict."""
     prose = _tutorial_prose()
     stale = re.sub(r"\d+( free bands)", r"99\1", prose)
-    assert any("recommended_bands.json gives" in d for d in _drifted(stale))
+    assert any("recommendation.json gives" in d for d in _drifted(stale))
     stale = re.sub(r"the \d+ lamps", "the 111 lamps", prose)
     assert any("compare.json gives" in d for d in _drifted(stale))
     assert _unsourced_numbers(prose + " (about 4 min each)")
