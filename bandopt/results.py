@@ -17,7 +17,9 @@ import sys
 import tempfile
 from pathlib import Path
 
-from .provenance import git_commit
+import numpy as np
+
+from .provenance import data_versions, git_commit
 from .strict_json import strict_dumps
 
 
@@ -169,7 +171,6 @@ def band_digest(bands) -> str:
         h.update(strict_dumps(d, indent=None).encode())
     else:  # a tabulated reference sensor: its names and response arrays
         import jax  # the tabulated sensors only: results are read without JAX
-        import numpy as np
 
         h.update(repr(list(bands.names)).encode())
         for leaf in jax.tree_util.tree_leaves(bands):
@@ -207,10 +208,9 @@ def data_digest() -> str:
     its NIR extension). Stored beside records under `DATA_KEY`, so a resume
     after a change of the lamp data recomputes every unit instead of
     pairing new units with old ones."""
-    import numpy as np
-
+    # start-up time: the report and the results index read this module
+    # without building the lamp library
     from .datasets.lamps import library
-    from .provenance import data_versions
 
     lib = library()
     h = hashlib.sha256()
