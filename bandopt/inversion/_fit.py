@@ -461,8 +461,10 @@ def fit_inversion(
             },
             "inner_log_evidence": {key(s): float(np.mean(v)) for s, v in evid.items()},
             "conformal_factor": dict(zip(METRICS, conf.tolist(), strict=True)),
-            "conformal_factor_unexplained": dict(
-                zip(METRICS, [] if conf_u is None else conf_u.tolist(), strict=False)
+            "conformal_factor_unexplained": (
+                {}
+                if conf_u is None
+                else dict(zip(METRICS, conf_u.tolist(), strict=True))
             ),
             "interval_offset": {m: fracs[pick[j]] for j, m in enumerate(METRICS)},
             "interval_candidates": _candidates(fracs, offs, confs, widths),

@@ -96,23 +96,18 @@ class Inversion:
                 f"{sorted(cands, key=float)} (fit_inversion(interval_offsets=))."
             )
         c = cands[key]
-        u = self.diagnostics.get("interval_candidates_unexplained", {}).get(key)
-        return dataclasses.replace(
+        out = dataclasses.replace(
             self,
             conformal=np.array([c["conformal"][m] for m in METRICS]),
             interval_offset=tuple(float(c["offset"][m]) for m in METRICS),
-            **(
-                {}
-                if u is None
-                else {
-                    "conformal_unexplained": np.array(
-                        [u["conformal"][m] for m in METRICS]
-                    ),
-                    "interval_offset_unexplained": tuple(
-                        float(u["offset"][m]) for m in METRICS
-                    ),
-                }
-            ),
+        )
+        u = self.diagnostics.get("interval_candidates_unexplained", {}).get(key)
+        if u is None:  # one calibration for every pixel
+            return out
+        return dataclasses.replace(
+            out,
+            conformal_unexplained=np.array([u["conformal"][m] for m in METRICS]),
+            interval_offset_unexplained=tuple(float(u["offset"][m]) for m in METRICS),
         )
 
     def restricted(self, keep) -> "Inversion":
