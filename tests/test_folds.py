@@ -92,3 +92,45 @@ def test_lamp_folds_is_the_nested_splits_as_a_record():
     assert not all(
         np.array_equal(a.test, b.test) for a, b in zip(folds, other, strict=True)
     )
+
+
+def test_paired_lamp_interval_resamples_lamps_of_the_studies_statistic():
+    """`paired_lamp_ci`: with one group and one value per lamp, the class-
+    balanced mean with the interval of `lamp_bootstrap_ci` (the same
+    resampling within class, drawn as multinomial counts); with partitions,
+    the estimate is the studies' statistic (per partition class-balanced,
+    then the mean over partitions) and a lamp scored in two partitions is
+    one unit; a shift of every value by the same amount has an interval of
+    zero width; bad input is refused."""
+    from bandopt.folds import paired_lamp_ci
+
+    rng = np.random.default_rng(1)
+    classes = np.repeat(["a", "b", "c"], [40, 12, 5])
+    lamps = [f"L{i}" for i in range(classes.size)]
+    d = rng.normal(0.3, 1.0, classes.size)
+    est, lo, hi = paired_lamp_ci(d, lamps, classes, n_boot=4000)
+    ref, rlo, rhi = lamp_bootstrap_ci(d, classes, n_boot=4000, seed=3)
+    assert est == pytest.approx(ref)
+    assert lo == pytest.approx(rlo, abs=0.05) and hi == pytest.approx(rhi, abs=0.05)
+    assert lo < est < hi
+    # two partitions scoring overlapping, unequal lamp sets
+    part = rng.integers(0, 2, classes.size)
+    extra = np.flatnonzero(part == 0)[:7]  # these lamps are also in partition 1
+    v = np.r_[d, d[extra] + 1.0]
+    lp = np.r_[lamps, np.asarray(lamps)[extra]]
+    cp = np.r_[classes, classes[extra]]
+    gp = np.r_[part, np.ones(extra.size, int)]
+    est2, lo2, hi2 = paired_lamp_ci(v, lp, cp, gp)
+    want = np.mean([
+        np.mean([v[(gp == g) & (cp == c)].mean() for c in sorted(set(cp[gp == g]))])
+        for g in (0, 1)
+    ])  # fmt: skip
+    assert est2 == pytest.approx(want) and lo2 < est2 < hi2
+    same = paired_lamp_ci(np.full(9, -2.5), list("abcdefghi"), ["x"] * 9)
+    assert same == pytest.approx((-2.5,) * 3)
+    with pytest.raises(ValueError, match="finite"):
+        paired_lamp_ci(np.r_[d[:-1], np.nan], lamps, classes)
+    with pytest.raises(ValueError, match="one per observation"):
+        paired_lamp_ci(d[:3], lamps, classes)
+    with pytest.raises(ValueError, match="two classes"):
+        paired_lamp_ci([1.0, 2.0], ["L1", "L1"], ["a", "b"], [0, 1])

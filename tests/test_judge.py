@@ -2,11 +2,13 @@
 the loss and the one-SD choice on hand-made summaries, and the whole study
 on a tiny configuration (two lamp partitions, two lamps per class)."""
 
+import gzip
 import json
 
 import numpy as np
 import pytest
 
+from bandopt.folds import paired_lamp_ci
 from bandopt.robustness import Perturbation
 from bandopt.sensor.reference import load_band_set
 from bandopt.studies import judge
@@ -127,6 +129,32 @@ def test_the_tiny_study_writes_a_verdict_that_agrees_with_its_rows(
         result["losses"][result["choice"]["chosen"]]["J"]
         - result["losses"]["nightsat"]["J"]
     )
+    # the paired interval over lamps is of that same difference: each
+    # (lamp, partition)'s loss difference, per partition class-balanced,
+    # then the mean over partitions, as the losses are
+    with gzip.open(tmp_path / "records.jsonl.gz", "rt") as fh:
+        records = [json.loads(x) for x in fh]
+    per_lamp = judge.lamp_losses(records, result["truth_sd"])
+    chosen = result["choice"]["chosen"]
+    units = sorted({k[1:3] for k in per_lamp if k != "classes" and k[0] == chosen})
+    diff = np.asarray([
+        np.mean([np.subtract(v, per_lamp[("nightsat", *k[1:])])
+                 for k, v in per_lamp.items()
+                 if k != "classes" and k[0] == chosen and k[1:3] == u], axis=0)
+        for u in units
+    ])  # fmt: skip
+    obs = {
+        "lamps": [u[0] for u in units],
+        "classes": [per_lamp["classes"][u[0]] for u in units],
+        "groups": [u[1] for u in units],
+    }
+    for i, part in enumerate(judge.PARTS):
+        v = result["chosen_minus_reference"]["nightsat"][part]
+        est, lo, hi = paired_lamp_ci(diff[:, i], **obs)
+        assert est == pytest.approx(v["mean"])
+        assert v["ci95"] == pytest.approx([lo, hi]) and lo <= est <= hi
+    assert "ci95" in result["searched_minus_chosen"]["J"]
+    assert "Intervals: ci95" in (tmp_path / "README.md").read_text()
     for name in (
         "judge.json",
         "judge.png",
@@ -185,6 +213,15 @@ def test_the_report_shows_the_judged_choice_and_whether_the_search_agrees(tmp_pa
         section = text[start : text.index("</section>", start)]
         assert says in section
         assert "n2 <strong>(chosen" in section and "ref" in section
+        # against the reference: ± SD over partitions without lamp records ...
+        assert "The chosen design against each reference sensor" in section
+        assert "written before the intervals over lamps" in section
+    # ... its interval over lamps when judge.json has one
+    res["chosen_minus_reference"]["ref"]["J"]["ci95"] = [-0.0123, 0.0456]
+    res["interval_note"] = judge.INTERVAL_NOTE
+    (out / "judge.json").write_text(json.dumps(res))
+    text = build_report(tmp_path, tmp_path / "oci", strict=False).path.read_text()
+    assert "-0.0123" in text and "0.0456" in text and "resampled within" in text
     (out / "judge.json").unlink()
     text = build_report(tmp_path, tmp_path / "o", strict=False).path.read_text()
     assert "make judge" in text

@@ -10,7 +10,7 @@ import pytest
 from bandopt import inversion as inv_mod, robustness as rb
 from bandopt.calibration import expected_calibration_error
 from bandopt.estimators import InversionConfig, fit_on_context
-from bandopt.folds import class_balanced_weights
+from bandopt.folds import class_balanced_weights, paired_lamp_ci
 from bandopt.sensor.reference import resolve_band_set
 
 
@@ -128,6 +128,20 @@ def test_summary_maths(run):
         r, c = rows[d["perturbation"]], rows["clean"]
         for col in ("level1_correct", "LER", "ECE"):
             assert d[f"{col}_diff"] == pytest.approx(r[col] - c[col])
+        # the interval over lamps: of the same class-balanced difference
+        # (every lamp has level1_correct on both sides), lamps paired by id
+        obs = rb.lamp_differences(
+            [x for x in records if x["perturbation"] == d["perturbation"]],
+            [x for x in records if x["perturbation"] == "clean"],
+            "level1_correct",
+        )
+        assert sorted(obs["lamps"]) == sorted({x["lamp"] for x in records})
+        est, lo, hi = paired_lamp_ci(**obs)
+        assert est == pytest.approx(d["level1_correct_diff"])
+        assert d["level1_correct_diff_ci95"] == pytest.approx([lo, hi])
+        assert lo <= est <= hi
+        assert "ECE_diff_ci95" not in d  # pooled over pixels: no lamp values
+    assert "ci95" in summary["interval_note"]
     assert set(summary["reliability"]["recommended"]) == {"clean", "perturbed"}
 
 

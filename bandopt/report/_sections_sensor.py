@@ -137,9 +137,13 @@ def recommended_sensor(ctx: Ctx) -> str:
             + "). The search's own pick, "
             + src.text(R, "/spectral/search_pick/set", shown=design_name)
             + " (chosen on its surrogate, moonless and unperturbed), has a loss "
-            "higher by " + src.num(R, d + "/mean") + " &plusmn; "
-            + src.num(R, d + "/sd", digits=2) + " (paired by lamp partition).</p>"
-        )
+            "higher by " + src.num(R, d + "/mean")
+            + (" " + src.interval(R, d + "/ci95", digits=2)
+               + " (paired, 95 % interval over lamps).</p>"
+               if "ci95" in spectral["search_pick"]["minus_chosen"]["J"]
+               else " &plusmn; " + src.num(R, d + "/sd", digits=2)
+               + " (paired by lamp partition).</p>")
+        )  # fmt: skip
     search = spectral.get("search")
     if search is None:
         parts.append(missing_box(

@@ -71,24 +71,40 @@ def _clean_rows(rows: list[dict]) -> dict[str, int]:
 
 
 def _versus(src: Sources, reference: str, perturbation: str, field: str) -> str:
-    """" (ours − it: Δ ± SD)": our bands minus `reference` on `field`, paired
-    by lamp partition (the suite's `versus`), or "" when the summary has no
-    such pair."""
+    """" (ours − it: Δ [95 % interval])": our bands minus `reference` on
+    `field`, paired (the suite's `versus`): the interval over lamps where the
+    summary has one, else ± the SD over partitions; "" when the summary has
+    no such pair."""
     versus = src.load(ROBUSTNESS).get("versus") or []
     for i, v in enumerate(versus):
         if v["reference"] == reference and v["perturbation"] == perturbation:
             if f"{field}_diff" not in v:
                 return ""
-            sd = (
-                " ± " + src.num(ROBUSTNESS, f"/versus/{i}/{field}_diff_sd", digits=2)
-                if v.get(f"{field}_diff_sd") is not None else ""
-            )  # fmt: skip
+            base = f"/versus/{i}/{field}_diff"
+            if v.get(f"{field}_diff_ci95") is not None:
+                spread = " " + src.interval(ROBUSTNESS, base + "_ci95", digits=2)
+            elif v.get(f"{field}_diff_sd") is not None:
+                spread = " ± " + src.num(ROBUSTNESS, base + "_sd", digits=2)
+            else:
+                spread = ""
             return (
                 " <small>(ours − it: "
-                + src.num(ROBUSTNESS, f"/versus/{i}/{field}_diff", digits=2)
-                + sd + ")</small>"
+                + src.num(ROBUSTNESS, base, digits=2)
+                + spread
+                + ")</small>"
             )
     return ""
+
+
+def _paired_text(src: Sources, ptr: str, value: dict) -> str:
+    """A judge paired difference: its mean, then its 95 % interval over
+    lamps when `judge.json` has one, else ± its SD over partitions."""
+    out = src.num(JUDGE, ptr + "/mean", digits=2)
+    if value.get("ci95") is not None:
+        return out + " " + src.interval(JUDGE, ptr + "/ci95", digits=2)
+    if value.get("sd") is not None:
+        return out + " ± " + src.num(JUDGE, ptr + "/sd", digits=2)
+    return out
 
 
 def _estimation_table(src: Sources) -> str:
@@ -257,7 +273,6 @@ def _judge_table(src: Sources) -> str:
                 snr,
             ]
         )  # fmt: skip
-    d = res["searched_minus_chosen"]["J"]
     rec = src.load("recommendation.json") if src.exists("recommendation.json") else {}
     adopted = rec.get("spectral", {}).get("set") == chosen
     agree = "The choice: " + design_name(chosen) + ". " + (
@@ -265,10 +280,9 @@ def _judge_table(src: Sources) -> str:
         if res["agrees_with_search"]
         else "<strong>The judged choice is not the search's pick</strong>: the "
         "search's pick has J "
-        + src.num(JUDGE, "/searched_minus_chosen/J/mean", digits=2)
-        + (" ± " + src.num(JUDGE, "/searched_minus_chosen/J/sd", digits=2)
-           if d["sd"] is not None else "")
-        + " against the choice (paired by partition). "
+        + _paired_text(src, "/searched_minus_chosen/J",
+                       res["searched_minus_chosen"]["J"])
+        + " against the choice (paired). "
         + (
             "The choice is the spectral recommendation (the sensor section "
             "and every study that reads our bands use it)."
@@ -302,6 +316,33 @@ def _judge_table(src: Sources) -> str:
         )
         + (f"<p>{esc(res['snr_note'])}.</p>" if "snr_note" in res else "")
         + f"<p>{agree}</p>"
+        + _versus_references(src, res)
+    )
+
+
+def _versus_references(src: Sources, res: dict) -> str:
+    """The chosen design minus each reference sensor in J and its parts,
+    paired (negative: ours better), with the note on the intervals."""
+    pairs = res.get("chosen_minus_reference") or {}
+    if not pairs:
+        return ""
+    rows = []
+    for ref, v in pairs.items():
+        base = f"/chosen_minus_reference/{_ptr(ref)}"
+        rows.append(
+            [esc(ref)]
+            + [_paired_text(src, f"{base}/{part}", v[part])
+               for part in ("J", "estimation", "classification")]
+        )  # fmt: skip
+    note = res.get("interval_note") or (
+        "± SD over lamp partitions, paired by partition (judge.json written "
+        "before the intervals over lamps)"
+    )
+    return table(
+        ["chosen minus", "loss J", "estimation e", "classification c"],
+        rows,
+        caption="The chosen design against each reference sensor, paired "
+        "(negative: ours better; " + esc(note) + ")",
     )
 
 

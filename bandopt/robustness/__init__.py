@@ -68,8 +68,10 @@ from ._study import (
 )
 from ._summary import (
     COLUMNS as COLUMNS,
+    INTERVAL_NOTE as INTERVAL_NOTE,
     PAIRED as PAIRED,
     WIDTH_COLUMNS as WIDTH_COLUMNS,
+    lamp_differences as lamp_differences,
     partition_answered as partition_answered,
     partition_ece as partition_ece,
     partition_width as partition_width,

@@ -10,7 +10,7 @@ import numpy as np
 from .. import inversion as inv_mod
 from ..calibration import expected_calibration_error, reliability_curve
 from ..estimate import METRICS
-from ..folds import class_balanced_weights
+from ..folds import class_balanced_weights, paired_lamp_ci
 from ._study import RobustnessStudy
 
 
@@ -34,6 +34,16 @@ weighted median over lamps of each lamp's median width. [lm/W], [1], [K]"""
 
 PAIRED = (*COLUMNS, *WIDTH_COLUMNS, "ECE", "ECE_answered", "level1_answered")
 """Columns whose perturbed-minus-clean difference is paired by partition."""
+
+INTERVAL_NOTE = (
+    "<col>_diff_ci95: 95 % percentile bootstrap interval of the paired "
+    "difference (per partition the class-balanced mean over held-out lamps, "
+    "then the mean over partitions), lamps resampled within level-2 class "
+    "(2,000 draws, seed 0). Only columns with a value per lamp (right, MAE, "
+    "covered, unexplained) have one: widths are medians and ECE is pooled "
+    "over pixels"
+)
+"""What a `_diff_ci95` of a summary's `paired` and `versus` entries is."""
 
 
 def _weights(recs) -> np.ndarray:
@@ -119,6 +129,35 @@ def reliability(recs) -> dict:
     }
 
 
+def lamp_differences(recs_a, recs_b, col: str) -> dict:
+    """`col` a - b per (lamp, partition) scored on both sides with a value
+    (records with None left out), as the columns `paired_lamp_ci` takes:
+    `values`, `lamps`, `classes` (level-2) and `groups` (partitions)."""
+    a = {(r["lamp"], r["partition"]): r[col] for r in recs_a if r.get(col) is not None}
+    out: dict[str, list] = {"values": [], "lamps": [], "classes": [], "groups": []}
+    for r in recs_b:
+        k = (r["lamp"], r["partition"])
+        if r.get(col) is None or k not in a:
+            continue
+        out["values"].append(float(a[k]) - float(r[col]))
+        out["lamps"].append(r["lamp"])
+        out["classes"].append(r["level2"])
+        out["groups"].append(r["partition"])
+    return out
+
+
+def _lamp_intervals(recs_a, recs_b) -> dict:
+    """`<col>_diff_ci95` of a - b for every `COLUMNS` column with a value on
+    both sides (`INTERVAL_NOTE`)."""
+    out = {}
+    for col in COLUMNS:
+        d = lamp_differences(recs_a, recs_b, col)
+        if d["values"]:
+            _, lo, hi = paired_lamp_ci(**d)
+            out[col + "_diff_ci95"] = [lo, hi]
+    return out
+
+
 def _paired_columns(a_row: dict, b_row: dict) -> dict:
     """`<col>_diff` and `<col>_diff_sd` of `a_row - b_row` for every `PAIRED`
     column, partition by partition (mean and SD over partitions)."""
@@ -142,13 +181,18 @@ def summarise(
     (same band set, partition by partition: mean and SD); `versus`: the
     first band set (ours) minus each other band set on the same row, paired
     by partition the same way (`versus=False`: none, for studies whose band
-    sets are peers, such as the judge's candidates); pooled reliability
+    sets are peers, such as the judge's candidates); every paired difference
+    of a per-lamp column also with a 95 % interval over lamps
+    (`INTERVAL_NOTE`); pooled reliability
     of clean and perturbed level-1 probabilities per band set (JSON-ready,
     no NaN: an empty reliability bin is None)."""
     base = {
         (r["band_set"], r["perturbation"]): r
         for r in inv_mod.summarise(records, keys=("band_set", "perturbation"))
     }
+    by_key: dict[tuple, list[dict]] = {}
+    for r in records:
+        by_key.setdefault((r["band_set"], r["perturbation"]), []).append(r)
     rows = []
     for b, _ in study.band_sets:
         for pert in study.perturbations:
@@ -169,7 +213,7 @@ def summarise(
             for col in COLUMNS:
                 for suffix in ("", "_sd", "_per_partition"):
                     row[col + suffix] = src.get(col + suffix)
-            recs = [r for r in records if (r["band_set"], r["perturbation"]) == key]
+            recs = by_key[key]
             parts = sorted({r["partition"] for r in recs})
             by_p = [[r for r in recs if r["partition"] == p] for p in parts]
             extra = {
@@ -191,6 +235,8 @@ def summarise(
             continue
         d = {"band_set": r["band_set"], "perturbation": r["perturbation"]}
         d.update(_paired_columns(r, clean))
+        perturbed = by_key[(r["band_set"], r["perturbation"])]
+        d.update(_lamp_intervals(perturbed, by_key[(r["band_set"], "clean")]))
         paired.append(d)
     first = study.band_sets[0][0]
     pairs = []
@@ -203,6 +249,8 @@ def summarise(
         d = {"band_set": first, "reference": r["band_set"],
              "perturbation": r["perturbation"]}  # fmt: skip
         d.update(_paired_columns(ours, r))
+        theirs = by_key[(r["band_set"], r["perturbation"])]
+        d.update(_lamp_intervals(by_key[(first, r["perturbation"])], theirs))
         pairs.append(d)
     rel = {}
     for b, _ in study.band_sets:
@@ -217,6 +265,7 @@ def summarise(
         "paired": paired,
         "versus": pairs,
         "reliability": rel,
+        "interval_note": INTERVAL_NOTE,
         "partitions": len({r["partition"] for r in records}),
         "fold": study.fold,
         "perturbations": [p.label for p in study.perturbations],

@@ -35,6 +35,7 @@ import numpy as np
 
 from .. import robustness as rb
 from ..estimate import METRICS
+from ..folds import paired_lamp_ci
 from ..provenance import write_manifest
 from ..results import RESULTS_DIR, update_recommendation
 from ..sensor import BandSet
@@ -198,19 +199,83 @@ def choose(loss: dict, n_bands: dict) -> dict:
     }
 
 
-def paired(loss: dict, ours: str, others: Sequence[str]) -> dict:
+PARTS = ("J", "estimation", "classification")
+"""The loss and its two parts, as `losses` and `paired` name them."""
+
+INTERVAL_NOTE = (
+    "ci95: 95 % percentile bootstrap interval of the paired difference "
+    "(per partition the class-balanced mean over held-out lamps, then the "
+    "mean over partitions, as `mean`), lamps resampled within level-2 class "
+    "(2,000 draws, seed 0); a lamp's loss in a partition is its mean over "
+    "the rows"
+)
+"""What a `ci95` of `paired` is."""
+
+
+def lamp_losses(records: Sequence[dict], truth_sd: dict) -> dict:
+    """Per (band set, lamp, partition, row) of `records` (robustness records:
+    one per held-out lamp), that lamp's J, e and c (module docstring), and
+    per lamp its level-2 class (key `"classes"`). A record without every
+    metric (a lamp whose every pixel was flagged `unexplained`) has no loss."""
+    out: dict = {"classes": {}}
+    for r in records:
+        if any(r.get(m) is None for m in METRICS):
+            continue
+        e = float(np.mean([float(r[m]) / truth_sd[m] for m in METRICS]))
+        c = 1.0 - 0.5 * (float(r["level1_correct"]) + float(r["level2_correct"]))
+        key = (r["band_set"], r["lamp"], r["partition"], r["perturbation"])
+        out[key] = (0.5 * (e + c), e, c)
+        out["classes"][r["lamp"]] = r["level2"]
+    return out
+
+
+def _lamp_ci(per_lamp: dict, ours: str, other: str) -> dict:
+    """Per part, the 95 % interval of the paired difference ours - other
+    (`paired_lamp_ci`: per partition class-balanced over held-out lamps,
+    then the mean over partitions), each (lamp, partition) its mean over the
+    rows both band sets have a loss in (`lamp_losses`)."""
+    diffs: dict[tuple, list] = {}
+    for key, v in per_lamp.items():
+        if key == "classes" or key[0] != ours:
+            continue
+        w = per_lamp.get((other, *key[1:]))
+        if w is not None:
+            diffs.setdefault(key[1:3], []).append(np.subtract(v, w))
+    if not diffs:
+        return {}
+    keys = sorted(diffs)
+    d = np.asarray([np.mean(diffs[k], axis=0) for k in keys])
+    lamps = [k[0] for k in keys]
+    obs = {
+        "lamps": lamps,
+        "classes": [per_lamp["classes"][x] for x in lamps],
+        "groups": [k[1] for k in keys],
+    }
+    out = {}
+    for i, part in enumerate(PARTS):
+        _, lo, hi = paired_lamp_ci(d[:, i], **obs)
+        out[part] = [lo, hi]
+    return out
+
+
+def paired(
+    loss: dict, ours: str, others: Sequence[str], per_lamp: dict | None = None
+) -> dict:
     """Paired differences ours - other in J, e and c, per partition: mean and
-    SD (negative: ours is better)."""
+    SD (negative: ours is better); with `per_lamp` (`lamp_losses`) also the
+    95 % interval over lamps (`ci95`, `INTERVAL_NOTE`)."""
     out = {}
     for o in others:
         out[o] = {}
-        for part in ("J", "estimation", "classification"):
+        ci = _lamp_ci(per_lamp, ours, o) if per_lamp is not None else {}
+        for part in PARTS:
             d = np.asarray(loss[ours][f"{part}_per_partition"]) - np.asarray(
                 loss[o][f"{part}_per_partition"]
             )
             out[o][part] = {
                 "mean": float(d.mean()),
                 "sd": float(d.std(ddof=1)) if d.size > 1 else None,
+                **({"ci95": ci[part]} if part in ci else {}),
             }
     return out
 
@@ -222,12 +287,15 @@ def verdict(
     n_bands: dict,
     searched: str,
     references: Sequence[str],
+    records: Sequence[dict] | None = None,
 ) -> dict:
     """The judge's result (`judge.json`): losses per band set, the choice
     among the candidates (`band_sets` minus `references`), the search's own
     recommendation `searched` against it, and the chosen design against each
-    reference sensor, paired by partition."""
+    reference sensor, paired by partition; with the study's `records`, each
+    paired difference also with its 95 % interval over lamps."""
     loss = losses(summary, truth_sd, band_sets)
+    per_lamp = lamp_losses(records, truth_sd) if records is not None else None
     cands = [b for b in band_sets if b not in references]
     choice = choose({b: loss[b] for b in cands}, n_bands)
     clean = {
@@ -255,10 +323,11 @@ def verdict(
         "choice": choice,
         "searched": searched,
         "agrees_with_search": choice["chosen"] == searched,
-        "searched_minus_chosen": paired(loss, searched, [choice["chosen"]])[
+        "searched_minus_chosen": paired(loss, searched, [choice["chosen"]], per_lamp)[
             choice["chosen"]
         ],
-        "chosen_minus_reference": paired(loss, choice["chosen"], references),
+        "chosen_minus_reference": paired(loss, choice["chosen"], references, per_lamp),
+        **({"interval_note": INTERVAL_NOTE} if per_lamp is not None else {}),
         "clean": clean,
     }
 
@@ -392,16 +461,27 @@ def readme_text(result: dict) -> str:
             "The search's recommendation is the judged choice."
             if result["agrees_with_search"]
             else f"The search recommended {result['searched']}; its J is "
-            f"{d['mean']:+.3f} ± {d['sd'] or 0:.3f} against the choice, paired."
+            f"{_spread(d)} against the choice, paired."
         ),
     ]
     for o, v in result["chosen_minus_reference"].items():
-        j = v["J"]
         lines.append(
-            f"- chosen minus {o}: J {j['mean']:+.3f} ± {j['sd'] or 0:.3f} "
-            "(negative: ours better)"
+            f"- chosen minus {o}: J {_spread(v['J'])}, estimation "
+            f"{_spread(v['estimation'])}, classification "
+            f"{_spread(v['classification'])} (negative: ours better)"
         )
+    if "interval_note" in result:
+        lines += ["", f"Intervals: {result['interval_note']}."]
     return "\n".join(lines) + "\n"
+
+
+def _spread(d: dict) -> str:
+    """A paired difference as text: mean and its 95 % interval over lamps,
+    or ± its SD over partitions when it has no interval."""
+    if d.get("ci95") is not None:
+        lo, hi = d["ci95"]
+        return f"{d['mean']:+.3f} [{lo:+.3f}, {hi:+.3f}]"
+    return f"{d['mean']:+.3f} ± {d['sd'] or 0:.3f}"
 
 
 def figure(result: dict, path: Path) -> None:
@@ -482,7 +562,7 @@ def run(
     n_bands = {label: len(load_band_set(src).names) for label, src in band_sets}
     result = verdict(
         summary, compare["truth_sd"], [b for b, _ in band_sets], n_bands,
-        compare["pareto"]["recommended"], REFERENCES,
+        compare["pareto"]["recommended"], REFERENCES, records,
     )  # fmt: skip
     result["snr_median"] = {
         k: compare["designs"][k].get("snr_median")
