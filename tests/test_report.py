@@ -10,6 +10,7 @@ import base64
 import csv
 import json
 import math
+import re
 import shutil
 from html.parser import HTMLParser
 from pathlib import Path
@@ -545,6 +546,29 @@ def test_verdict_states_every_target_from_the_robustness_suite(tmp_path):
     rows = _verdict_rows(res.path)
     g = rows["G index error (class-balanced MAE)"]
     assert g[1] == "≤ 0.25"
+    # coverage is shown with its price, and every reference with ours minus
+    # it and the 95 % interval over lamps (the suite's `versus`)
+    cov = rows["90 % interval coverage, LER"]
+    assert "median width" in cov[2] and "lm/W" in cov[2]
+    assert all("median width" in c for c in cov[4:])
+    ler = rows["LER error (class-balanced MAE)"]
+    for cell in ler[4:]:
+        assert re.search(r"ours − it: -?[\d.]+ \[-?[\d.]+, -?[\d.]+\]", cell), cell
+    # "ahead" only where the paired interval is below 0
+    ahead = next(v for k, v in rows.items() if k.startswith("our bands ahead"))
+    said = dict(re.findall(r"(LER|G|CCT): (.*?)(?=; (?:LER|G|CCT):|$)", ahead[2]))
+    words = {m: [] for m in ("LER", "G", "CCT")}
+    for v in summary["versus"]:
+        if v["perturbation"] != "clean":
+            continue
+        for m in words:
+            lo, hi = v[f"{m}_diff_ci95"]
+            if hi >= 0:  # not ahead: named with where it stands
+                words[m].append(f"{'behind' if lo > 0 else 'level with'} "
+                                f"{v['reference']}")  # fmt: skip
+    for m, w in words.items():
+        assert said[m] == ("; ".join(w) if w else "ahead of every reference")
+    assert ahead[3] == ("pass" if not any(words.values()) else "fail")
     assert g[3] == ("pass" if summary["rows"][ours]["G"] <= 0.25 else "fail")
     limits = list(
         csv.DictReader((RESULTS / "radiometry/limits.csv").read_text().splitlines())

@@ -96,6 +96,43 @@ def _versus(src: Sources, reference: str, perturbation: str, field: str) -> str:
     return ""
 
 
+WIDTH_UNITS = {"LER": " lm/W", "G": "", "CCT": " K"}
+"""Units of the interval widths shown beside coverage."""
+
+
+def _width(src: Sources, rows: list[dict], i: int, field: str) -> str:
+    """Beside a coverage (`<m>_covered`): " (median width W)" of that row's
+    90 % intervals, so coverage is never read without its price; "" for
+    other fields or a row without widths."""
+    if not field.endswith("_covered"):
+        return ""
+    m = field.removesuffix("_covered")
+    if rows[i].get(f"{m}_width_median") is None:
+        return ""
+    return (
+        " <small>(median width "
+        + src.num(ROBUSTNESS, f"/rows/{i}/{m}_width_median", digits=3)
+        + WIDTH_UNITS[m]
+        + ")</small>"
+    )
+
+
+def _standing(src: Sources, reference: str, field: str, ours: float,
+              theirs: float) -> str:
+    """Where our clean error on `field` stands against `reference`: "ahead
+    of" when the paired 95 % interval of ours − it (the suite's `versus`) is
+    below 0, "behind" when above, "level with" when it holds 0; without an
+    interval, by the means."""
+    for v in src.load(ROBUSTNESS).get("versus") or []:
+        if v["reference"] == reference and v["perturbation"] == "clean":
+            ci = v.get(f"{field}_diff_ci95")
+            if ci is not None:
+                if ci[1] < 0:
+                    return "ahead of"
+                return "behind" if ci[0] > 0 else "level with"
+    return "ahead of" if ours < theirs else "behind"
+
+
 def _paired_text(src: Sources, ptr: str, value: dict) -> str:
     """A judge paired difference: its mean, then its 95 % interval over
     lamps when `judge.json` has one, else ± its SD over partitions."""
@@ -123,12 +160,14 @@ def _estimation_table(src: Sources) -> str:
         cells = [
             esc(label),
             esc(_target_text(target, rule, unit)),
-            src.num(ROBUSTNESS, f"/rows/{ours}/{field}"),
+            src.num(ROBUSTNESS, f"/rows/{ours}/{field}")
+            + _width(src, rows, ours, field),
             _verdict(_passes(value, target, rule)),
         ]
         for s in refs:
             cells.append(
                 src.num(ROBUSTNESS, f"/rows/{clean[s]}/{field}")
+                + _width(src, rows, clean[s], field)
                 + _versus(src, s, "clean", field)
             )
         out.append(cells)
@@ -161,23 +200,24 @@ def _estimation_table(src: Sources) -> str:
                 if same else "-"
             )  # fmt: skip
         out.append(cells)
+    standing = {
+        (s, f): _standing(src, s, f, rows[ours][f], rows[clean[s]][f])
+        for s in refs
+        for f in ("LER", "G", "CCT")
+    }
     ahead = []
     for field in ("LER", "G", "CCT"):
-        beaten_by = [s for s in refs if rows[clean[s]][field] < rows[ours][field]]
-        ahead.append(
-            f"{field}: "
-            + (
-                "ahead of every reference"
-                if not beaten_by
-                else "behind " + ", ".join(beaten_by)
-            )
-        )
-    ok_ahead = all(
-        rows[clean[s]][f] >= rows[ours][f] for s in refs for f in ("LER", "G", "CCT")
-    )
+        words = [
+            f"{standing[(s, field)]} {s}" for s in refs
+            if standing[(s, field)] != "ahead of"
+        ]  # fmt: skip
+        said = "; ".join(words) if words else "ahead of every reference"
+        ahead.append(f"{field}: {said}")
+    ok_ahead = all(v == "ahead of" for v in standing.values())
     out.append(
         [
-            "our bands ahead of the reference sensors on LER, G and CCT",
+            "our bands ahead of the reference sensors on LER, G and CCT "
+            "(the paired 95 % interval of ours − it below 0)",
             "all three",
             esc("; ".join(ahead)),
             _verdict(ok_ahead),
