@@ -116,7 +116,8 @@ def test_the_tiny_study_writes_a_verdict_that_agrees_with_its_rows(
     assert result["n_bands"] == {"n2+pan a=0": 3, "n3+pan a=0.5": 4, "nightsat": 6}
     compare = json.loads((judge.SEARCH / "compare.json").read_text())
     assert result["snr_median"] == {  # beside the loss: the instrument's side
-        k: compare["designs"][k]["snr_median"] for k in KEEP
+        **{k: compare["designs"][k]["snr_median"] for k in KEEP},
+        "nightsat": compare["references"]["nightsat"]["snr_median"],
     }
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["versus"] == []  # peers: their pairs are in judge.json
@@ -155,9 +156,16 @@ def test_the_tiny_study_writes_a_verdict_that_agrees_with_its_rows(
         assert v["ci95"] == pytest.approx([lo, hi]) and lo <= est <= hi
     assert "ci95" in result["searched_minus_chosen"]["J"]
     assert "Intervals: ci95" in (tmp_path / "README.md").read_text()
+    # the trade the loss does not weigh: the narrowest band beside the SNR
+    judged = {k: b for k, b in every(judge.SEARCH) if k in KEEP}
+    judged["nightsat"] = load_band_set("nightsat")
+    assert set(result["narrowest_fwhm_nm"]) == set(judged)
+    for label, bands in judged.items():
+        assert result["narrowest_fwhm_nm"][label] == pytest.approx(min(bands.fwhm_nm))
     for name in (
         "judge.json",
         "judge.png",
+        "trade.png",
         "README.md",
         "manifest.json",
         "records.jsonl.gz",

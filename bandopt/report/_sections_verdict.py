@@ -357,6 +357,16 @@ def _judge_table(src: Sources) -> str:
         + (f"<p>{esc(res['snr_note'])}.</p>" if "snr_note" in res else "")
         + f"<p>{agree}</p>"
         + _versus_references(src, res)
+        + (
+            src.image(
+                "judge/trade.png",
+                "The trade the loss does not weigh: the shipped estimator's "
+                "error against the median SNR at the detection limit, coloured "
+                "by the narrowest band's FWHM (results/judge/trade.png)",
+            )
+            if src.exists("judge/trade.png")
+            else ""
+        )
     )
 
 

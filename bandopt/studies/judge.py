@@ -484,6 +484,67 @@ def _spread(d: dict) -> str:
     return f"{d['mean']:+.3f} ± {d['sd'] or 0:.3f}"
 
 
+def snr_medians(compare: dict, band_sets) -> dict:
+    """Each judged band set's median SNR at the detection limit as the
+    search computed it (`compare.json`: its designs and its reference
+    sensors, the same instrument and scenes); band sets it lacks are left
+    out."""
+    out = {}
+    for k in band_sets:
+        for kind in ("designs", "references"):
+            v = compare.get(kind, {}).get(k, {}).get("snr_median")
+            if v is not None:
+                out[k] = v
+                break
+    return out
+
+
+def trade_figure(result: dict, path: Path) -> None:
+    """The trade the loss does not weigh: each judged band set's estimation
+    error e and loss J against its median SNR at the detection limit, coloured
+    by its narrowest band's FWHM (a narrow band is a dim band), the chosen
+    design and the search's pick marked. Band sets without an SNR in
+    `compare.json` are left out."""
+    import matplotlib  # plotting only: start-up time
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # after matplotlib.use("Agg")
+
+    snr = result.get("snr_median", {})
+    fwhm = result.get("narrowest_fwhm_nm", {})
+    sets = [b for b in result["losses"] if snr.get(b) and b in fwhm]
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2), sharex=True)
+    for ax, part, title in zip(
+        axes,
+        ("estimation", "J"),
+        ("estimation error e (MAE / truth SD)", "loss J"),
+        strict=True,
+    ):
+        x = [snr[b] for b in sets]
+        y = [result["losses"][b][part] for b in sets]
+        err = [result["losses"][b][f"{part}_sd"] or 0.0 for b in sets]
+        sc = ax.scatter(x, y, c=[fwhm[b] for b in sets], cmap="viridis", s=50,
+                        zorder=3)  # fmt: skip
+        ax.errorbar(x, y, yerr=err, fmt="none", ecolor="0.6", zorder=2)
+        for b, xi, yi in zip(sets, x, y, strict=True):
+            mark = ""
+            if b == result["choice"]["chosen"]:
+                mark = " (chosen)"
+            elif b == result["searched"]:
+                mark = " (search)"
+            ax.annotate(b + mark, (xi, yi), fontsize=7, xytext=(4, 3),
+                        textcoords="offset points")  # fmt: skip
+        ax.set_xscale("log")
+        ax.set_xlabel("median SNR at the detection limit (weakest band)")
+        ax.set_title(title, fontsize=9)
+        ax.grid(alpha=0.3)
+    fig.colorbar(sc, ax=axes, label="narrowest band FWHM [nm]")
+    fig.suptitle("Estimate against instrument: the shipped estimator's error "
+                 "vs SNR (mean ± SD over partitions)", fontsize=10)  # fmt: skip
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def figure(result: dict, path: Path) -> None:
     """J per band set (per-partition points, mean ± SD), its estimation and
     classification parts."""
@@ -564,21 +625,22 @@ def run(
         summary, compare["truth_sd"], [b for b, _ in band_sets], n_bands,
         compare["pareto"]["recommended"], REFERENCES, records,
     )  # fmt: skip
-    result["snr_median"] = {
-        k: compare["designs"][k].get("snr_median")
-        for k in result["losses"]
-        if k in compare.get("designs", {})
-    }
+    result["snr_median"] = snr_medians(compare, result["losses"])
     result["snr_note"] = (
-        "snr_median: the search's median SNR at the detection limit over the "
-        "design's free bands (compare.json); the loss J does not weigh it, so "
+        "snr_median: the search's median over scenes of the weakest band's SNR "
+        "at the detection limit (compare.json, the same instrument and scenes "
+        "for designs and reference sensors); the loss J does not weigh it, so "
         "the trade between a better estimate and a harder instrument is read "
         "beside it (results/radiometry gives the recommended design's exposure "
         "factor)"
     )
+    result["narrowest_fwhm_nm"] = {
+        label: float(np.min(load_band_set(src).fwhm_nm)) for label, src in band_sets
+    }
     (out / "summary.json").write_text(strict_dumps(summary, indent=2) + "\n")
     (out / "judge.json").write_text(strict_dumps(result, indent=2) + "\n")
     figure(result, out / "judge.png")
+    trade_figure(result, out / "trade.png")
     (out / "README.md").write_text(readme_text(result))
     chosen = dict(band_sets)[result["choice"]["chosen"]]
     bands = BandSet.from_json(chosen)
