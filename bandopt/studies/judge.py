@@ -513,7 +513,11 @@ def trade_figure(result: dict, path: Path) -> None:
     snr = result.get("snr_median", {})
     fwhm = result.get("narrowest_fwhm_nm", {})
     sets = [b for b in result["losses"] if snr.get(b) and b in fwhm]
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2), sharex=True)
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
+
+    fig, axes = plt.subplots(
+        1, 2, figsize=(12, 4.4), sharex=True, layout="constrained"
+    )
     for ax, part, title in zip(
         axes,
         ("estimation", "J"),
@@ -535,6 +539,10 @@ def trade_figure(result: dict, path: Path) -> None:
             ax.annotate(b + mark, (xi, yi), fontsize=7, xytext=(4, 3),
                         textcoords="offset points")  # fmt: skip
         ax.set_xscale("log")
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.set_xticks([t for t in (0.5, 1, 2, 5, 10, 20, 50)
+                       if min(x) / 1.5 <= t <= max(x) * 1.5])  # fmt: skip
         ax.set_xlabel("median SNR at the detection limit (weakest band)")
         ax.set_title(title, fontsize=9)
         ax.grid(alpha=0.3)
