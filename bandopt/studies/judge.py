@@ -41,6 +41,7 @@ from ..results import RESULTS_DIR, update_recommendation
 from ..sensor import BandSet
 from ..sensor.reference import load_band_set
 from ..strict_json import strict_dumps
+from ._judge_outputs import figure, readme_text, trade_figure
 
 
 OUT = RESULTS_DIR / "judge"
@@ -420,70 +421,6 @@ def recommendation_entry(
     return entry
 
 
-def readme_text(result: dict) -> str:
-    """`README.md` of the judge: the rule, the table of losses and the
-    verdict."""
-    ch = result["choice"]
-    lines = [
-        "# The search's candidates judged by the shipped estimator",
-        "",
-        "Written by `make judge` (`bandopt.studies.judge`); numbers from "
-        "`judge.json`. Each band set: the shipped inversion fitted per lamp "
-        "partition on the training lamps, held-out measured lamps scored on "
-        "the rows " + ", ".join(result["rows"]) + ".",
-        "",
-        f"Loss: {result['loss']}. Rule: {ch['rule']}.",
-        "",
-        "| band set | bands | J | estimation e | classification c | "
-        "clean level-1 | clean LER [lm/W] | clean G | clean CCT [K] |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for b, v in result["losses"].items():
-        c = result["clean"].get(b, {})
-
-        def f(x, d):
-            return "-" if x is None else f"{x:.{d}f}"
-
-        sd = "" if v["J_sd"] is None else f" ± {v['J_sd']:.3f}"
-        mark = " (chosen)" if b == ch["chosen"] else ""
-        mark += " (search)" if b == result["searched"] else ""
-        lines.append(
-            f"| {b}{mark} | {result['n_bands'][b]} | {v['J']:.3f}{sd} | "
-            f"{v['estimation']:.3f} | {v['classification']:.3f} | "
-            f"{f(c.get('level1_correct'), 2)} | {f(c.get('LER'), 1)} | "
-            f"{f(c.get('G'), 3)} | {f(c.get('CCT'), 0)} |"
-        )
-    d = result["searched_minus_chosen"]["J"]
-    lines += [
-        "",
-        f"**Verdict.** Chosen: {ch['chosen']} (lowest J: {ch['best']}). "
-        + (
-            "The search's recommendation is the judged choice."
-            if result["agrees_with_search"]
-            else f"The search recommended {result['searched']}; its J is "
-            f"{_spread(d)} against the choice, paired."
-        ),
-    ]
-    for o, v in result["chosen_minus_reference"].items():
-        lines.append(
-            f"- chosen minus {o}: J {_spread(v['J'])}, estimation "
-            f"{_spread(v['estimation'])}, classification "
-            f"{_spread(v['classification'])} (negative: ours better)"
-        )
-    if "interval_note" in result:
-        lines += ["", f"Intervals: {result['interval_note']}."]
-    return "\n".join(lines) + "\n"
-
-
-def _spread(d: dict) -> str:
-    """A paired difference as text: mean and its 95 % interval over lamps,
-    or ± its SD over partitions when it has no interval."""
-    if d.get("ci95") is not None:
-        lo, hi = d["ci95"]
-        return f"{d['mean']:+.3f} [{lo:+.3f}, {hi:+.3f}]"
-    return f"{d['mean']:+.3f} ± {d['sd'] or 0:.3f}"
-
-
 def snr_medians(compare: dict, band_sets) -> dict:
     """Each judged band set's median SNR at the detection limit as the
     search computed it (`compare.json`: its designs and its reference
@@ -497,94 +434,6 @@ def snr_medians(compare: dict, band_sets) -> dict:
                 out[k] = v
                 break
     return out
-
-
-def trade_figure(result: dict, path: Path) -> None:
-    """The trade the loss does not weigh: each judged band set's estimation
-    error e and loss J against its median SNR at the detection limit, coloured
-    by its narrowest band's FWHM (a narrow band is a dim band), the chosen
-    design and the search's pick marked. Band sets without an SNR in
-    `compare.json` are left out."""
-    import matplotlib  # plotting only: start-up time
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt  # after matplotlib.use("Agg")
-
-    snr = result.get("snr_median", {})
-    fwhm = result.get("narrowest_fwhm_nm", {})
-    sets = [b for b in result["losses"] if snr.get(b) and b in fwhm]
-    from matplotlib.ticker import NullFormatter, ScalarFormatter
-
-    fig, axes = plt.subplots(
-        1, 2, figsize=(12, 4.4), sharex=True, layout="constrained"
-    )
-    for ax, part, title in zip(
-        axes,
-        ("estimation", "J"),
-        ("estimation error e (MAE / truth SD)", "loss J"),
-        strict=True,
-    ):
-        x = [snr[b] for b in sets]
-        y = [result["losses"][b][part] for b in sets]
-        err = [result["losses"][b][f"{part}_sd"] or 0.0 for b in sets]
-        sc = ax.scatter(x, y, c=[fwhm[b] for b in sets], cmap="viridis", s=50,
-                        zorder=3)  # fmt: skip
-        ax.errorbar(x, y, yerr=err, fmt="none", ecolor="0.6", zorder=2)
-        for b, xi, yi in zip(sets, x, y, strict=True):
-            mark = ""
-            if b == result["choice"]["chosen"]:
-                mark = " (chosen)"
-            elif b == result["searched"]:
-                mark = " (search)"
-            ax.annotate(b + mark, (xi, yi), fontsize=7, xytext=(4, 3),
-                        textcoords="offset points")  # fmt: skip
-        ax.set_xscale("log")
-        ax.xaxis.set_major_formatter(ScalarFormatter())
-        ax.xaxis.set_minor_formatter(NullFormatter())
-        ax.set_xticks([t for t in (0.5, 1, 2, 5, 10, 20, 50)
-                       if min(x) / 1.5 <= t <= max(x) * 1.5])  # fmt: skip
-        ax.set_xlabel("median SNR at the detection limit (weakest band)")
-        ax.set_title(title, fontsize=9)
-        ax.grid(alpha=0.3)
-    fig.colorbar(sc, ax=axes, label="narrowest band FWHM [nm]")
-    fig.suptitle("Estimate against instrument: the shipped estimator's error "
-                 "vs SNR (mean ± SD over partitions)", fontsize=10)  # fmt: skip
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-
-
-def figure(result: dict, path: Path) -> None:
-    """J per band set (per-partition points, mean ± SD), its estimation and
-    classification parts."""
-    import matplotlib  # plotting only: start-up time
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt  # after matplotlib.use("Agg")
-
-    sets = list(result["losses"])
-    fig, axes = plt.subplots(1, 3, figsize=(14, 1.5 + 0.45 * len(sets)), sharey=True)
-    y = np.arange(len(sets))[::-1]
-    for ax, part, title in zip(
-        axes,
-        ("J", "estimation", "classification"),
-        ("loss J", "estimation e (MAE / truth SD)", "classification c (1 - right)"),
-        strict=True,
-    ):
-        for yi, b in zip(y, sets, strict=True):
-            v = result["losses"][b]
-            pts = v[f"{part}_per_partition"]
-            colour = "C3" if b == result["choice"]["chosen"] else "C0"
-            ax.plot(pts, [yi] * len(pts), "o", ms=3, color="0.6")
-            ax.errorbar(
-                v[part], yi, xerr=v[f"{part}_sd"] or 0, fmt="s", color=colour, capsize=3
-            )
-        ax.set_title(title, fontsize=9)
-        ax.grid(axis="x", alpha=0.3)
-    axes[0].set_yticks(y, sets, fontsize=8)
-    fig.suptitle("search candidates judged by the shipped inversion (red: chosen)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
 
 
 def run(
