@@ -201,5 +201,6 @@ def search_figures(ctx: Ctx) -> str:
                     "Pareto front: estimation error vs classification vs SNR")
         + (f"<p>Rule: {src.text(P, '/rule')}.</p>" if src.exists(P) else "")
         + table(["candidate", "alpha", "normalised MAE", "level-2 F1",
-                 "median SNR at the limit"], rows, caption="Pareto candidates")
+                 "median SNR, weakest band (P4 scenes)"], rows,
+                caption="Pareto candidates")
     )

@@ -350,7 +350,7 @@ def _judge_table(src: Sources) -> str:
                 "estimation e",
                 "classification c",
                 "level-1 right, clean",
-                "median SNR at the limit (search)",
+                "median SNR, weakest band (search's P4 scenes)",
             ],
             rows,
         )
@@ -361,7 +361,9 @@ def _judge_table(src: Sources) -> str:
             src.image(
                 "judge/trade.png",
                 "The trade the loss does not weigh: the shipped estimator's "
-                "error against the median SNR at the detection limit, coloured "
+                "error against the median SNR of its weakest band over the search's "
+                "scenes (class P4, shot noise; not the SNR at the detection limit "
+                "above), coloured "
                 "by the narrowest band's FWHM (results/judge/trade.png)",
             )
             if src.exists("judge/trade.png")

@@ -73,7 +73,8 @@ def _spread(d: dict) -> str:
 
 def trade_figure(result: dict, path: Path) -> None:
     """The trade the loss does not weigh: each judged band set's estimation
-    error e and loss J against its median SNR at the detection limit, coloured
+    error e and loss J against its median SNR (weakest band, the search's
+    class P4 scenes, shot noise: `snr_medians`), coloured
     by its narrowest band's FWHM (a narrow band is a dim band), the chosen
     design and the search's pick marked. Band sets without an SNR in
     `compare.json` are left out."""
@@ -113,7 +114,7 @@ def trade_figure(result: dict, path: Path) -> None:
         ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xticks([t for t in (0.5, 1, 2, 5, 10, 20, 50)
                        if min(x) / 1.5 <= t <= max(x) * 1.5])  # fmt: skip
-        ax.set_xlabel("median SNR at the detection limit (weakest band)")
+        ax.set_xlabel("median SNR of the weakest band (class P4 scenes, shot noise)")
         ax.set_title(title, fontsize=9)
         ax.grid(alpha=0.3)
     fig.colorbar(sc, ax=axes, label="narrowest band FWHM [nm]")

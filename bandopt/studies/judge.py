@@ -422,8 +422,10 @@ def recommendation_entry(
 
 
 def snr_medians(compare: dict, band_sets) -> dict:
-    """Each judged band set's median SNR at the detection limit as the
-    search computed it (`compare.json`: its designs and its reference
+    """Each judged band set's median SNR as the search computed it
+    (`search.design_snr`: over its scenes at EN 13201 class P4, the weakest
+    band's shot-noise SNR; not the SNR at the detection limit of
+    `results/radiometry`) (`compare.json`: its designs and its reference
     sensors, the same instrument and scenes); band sets it lacks are left
     out."""
     out = {}
@@ -484,9 +486,11 @@ def run(
     )  # fmt: skip
     result["snr_median"] = snr_medians(compare, result["losses"])
     result["snr_note"] = (
-        "snr_median: the search's median over scenes of the weakest band's SNR "
-        "at the detection limit (compare.json, the same instrument and scenes "
-        "for designs and reference sensors); the loss J does not weigh it, so "
+        "snr_median: the search's median over its scenes (EN 13201 class P4, "
+        "shot noise only) of the weakest band's SNR (compare.json, the same "
+        "instrument and scenes for designs and reference sensors), not the SNR "
+        "at the detection limit of results/radiometry, which adds background, "
+        "dark and read noise; the loss J does not weigh it, so "
         "the trade between a better estimate and a harder instrument is read "
         "beside it (results/radiometry gives the recommended design's exposure "
         "factor)"
