@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from bandopt.folds import paired_lamp_ci
+from bandopt.radiometry import RadiometryConfig
 from bandopt.robustness import Perturbation
 from bandopt.sensor.reference import load_band_set
 from bandopt.studies import judge
@@ -110,6 +111,7 @@ def test_the_tiny_study_writes_a_verdict_that_agrees_with_its_rows(
         tmp_path, partitions=2, preset="tiny", atmospheres="none",
         lamps_per_class=2, config=LIGHT,
         perturbations=(Perturbation("clean"), Perturbation("mixture", 0.1)),
+        instrument=RadiometryConfig.quick(),
     )  # fmt: skip
     assert set(result["losses"]) == {"n2+pan a=0", "n3+pan a=0.5", "nightsat"}
     assert result["choice"]["chosen"] in ("n2+pan a=0", "n3+pan a=0.5")
@@ -156,6 +158,19 @@ def test_the_tiny_study_writes_a_verdict_that_agrees_with_its_rows(
         assert v["ci95"] == pytest.approx([lo, hi]) and lo <= est <= hi
     assert "ci95" in result["searched_minus_chosen"]["J"]
     assert "Intervals: ci95" in (tmp_path / "README.md").read_text()
+    assert "**Under the instrument**" in (tmp_path / "README.md").read_text()
+    # the instrument check: every judged band set through the radiometry
+    inst = result["instrument"]
+    assert set(inst["band_sets"]) == set(result["losses"])
+    assert inst["snr_target"] == 10.0
+    for v in inst["band_sets"].values():
+        assert v["snr_at_limit"] > 0
+        target = inst["snr_target"] * (1 - 1e-9)  # the radiometry's own rule
+        assert v["meets_snr_target"] == (v["snr_at_limit"] >= target)
+    under = result["choice_under_instrument"]
+    assert under["meeting_target"] == [
+        b for b in KEEP if inst["band_sets"][b]["meets_snr_target"]
+    ]
     # the trade the loss does not weigh: the narrowest band beside the SNR
     judged = {k: b for k, b in every(judge.SEARCH) if k in KEEP}
     judged["nightsat"] = load_band_set("nightsat")
@@ -233,3 +248,53 @@ def test_the_report_shows_the_judged_choice_and_whether_the_search_agrees(tmp_pa
     (out / "judge.json").unlink()
     text = build_report(tmp_path, tmp_path / "o", strict=False).path.read_text()
     assert "make judge" in text
+
+
+def test_choice_under_the_instrument_takes_the_judges_rule_on_those_that_meet_it():
+    """Among candidates that reach the SNR target the judge's own rule picks;
+    when none does, there is no pick, and the candidate needing the least
+    exposure and what the judged choice needs are named."""
+    from bandopt.studies._judge_instrument import choose_under_instrument
+
+    def inst(meets, factors):
+        return {"band_sets": {
+            b: {"meets_snr_target": m, "exposure_factor": f}
+            for b, m, f in zip("abc", meets, factors, strict=True)
+        }}  # fmt: skip
+
+    got = choose_under_instrument(
+        inst((False, True, True), (9.0, 1.0, 1.0)), "abc", lambda m: m[-1], "a"
+    )
+    assert got == {"meeting_target": ["b", "c"], "chosen": "c", "same_as_judged": False}
+    got = choose_under_instrument(
+        inst((False, False, False), (9.0, 3.0, 40.0)), "abc", lambda m: m[0], "c"
+    )
+    assert got["chosen"] is None and got["meeting_target"] == []
+    assert got["least_exposure"] == "b" and got["least_exposure_factor"] == 3.0
+    assert got["judged_exposure_factor"] == 40.0
+
+
+def test_committed_instrument_check_is_the_radiometrys():
+    """The judge's instrument check of the recommended design and of the
+    reference sensors is what `make radiometry` wrote for them (same scene
+    distribution, photon model and rule): the SNR of the limiting band at its
+    detection limit and the largest exposure factor."""
+    import csv
+    from pathlib import Path
+
+    res = json.loads(Path("results/judge/judge.json").read_text())
+    rows = list(csv.DictReader(Path("results/radiometry/limits.csv").open()))
+    rad = json.loads(Path("results/radiometry/summary.json").read_text())
+    names = {"ours": res["choice"]["chosen"], "nightsat": "nightsat",
+             "sdgsat-1": "sdgsat-1"}  # fmt: skip
+    assert rad["band_set"] == "ours"
+    for rad_name, label in names.items():
+        mine = [r for r in rows if r["band_set"] == rad_name]
+        assert mine, rad_name
+        v = res["instrument"]["band_sets"][label]
+        assert v["snr_at_limit"] == pytest.approx(
+            min(float(r["snr_at_limit"]) for r in mine), rel=1e-6
+        )
+        assert v["exposure_factor"] == pytest.approx(
+            max(float(r["exposure_factor_for_snr_target"]) for r in mine), rel=1e-6
+        )

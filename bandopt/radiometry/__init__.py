@@ -67,6 +67,7 @@ from ._report import (
     DEFAULT_BAND_SET as DEFAULT_BAND_SET,
     RadiometryConfig as RadiometryConfig,
     compute as compute,
+    distribution_set as distribution_set,
     load_band_set as load_band_set,
     plot_histograms as plot_histograms,
 )

@@ -299,6 +299,17 @@ def _judge_table(src: Sources) -> str:
             if b in res.get("snr_median", {})
             else "-"
         )
+        inst = (res.get("instrument") or {}).get("band_sets", {}).get(b)
+        at_limit = (
+            [
+                src.num(JUDGE, f"/instrument/band_sets/{_ptr(b)}/snr_at_limit",
+                        digits=2)
+                + " (" + esc(inst["limiting_band"]) + ")",
+                src.num(JUDGE, f"/instrument/band_sets/{_ptr(b)}/exposure_factor",
+                        digits=3),
+            ]
+            if inst is not None else ["-", "-"]
+        )  # fmt: skip
         rows.append(
             [
                 design_name(b)
@@ -310,6 +321,7 @@ def _judge_table(src: Sources) -> str:
                 src.num(JUDGE, base + "/estimation"),
                 src.num(JUDGE, base + "/classification"),
                 clean,
+                *at_limit,
                 snr,
             ]
         )  # fmt: skip
@@ -350,10 +362,13 @@ def _judge_table(src: Sources) -> str:
                 "estimation e",
                 "classification c",
                 "level-1 right, clean",
+                "SNR at the detection limit (limiting band)",
+                "exposure factor for the SNR target",
                 "median SNR, weakest band (search's P4 scenes)",
             ],
             rows,
         )
+        + _under_instrument(src, res)
         + (f"<p>{esc(res['snr_note'])}.</p>" if "snr_note" in res else "")
         + f"<p>{agree}</p>"
         + _versus_references(src, res)
@@ -370,6 +385,37 @@ def _judge_table(src: Sources) -> str:
             else ""
         )
     )
+
+
+def _under_instrument(src: Sources, res: dict) -> str:
+    """The choice among the candidates that reach the SNR target at their
+    detection limit, or that none does and what the choice needs."""
+    under = res.get("choice_under_instrument")
+    if under is None:
+        return missing_box(
+            "the instrument check in <code>results/judge/judge.json</code>",
+            "run <code>make judge ARGS=--resume</code>",
+        )
+    target = src.num(JUDGE, "/instrument/snr_target", digits=3)
+    if under["chosen"] is not None:
+        return (
+            f"<p>Under the instrument (SNR target {target} at every band's "
+            "detection limit): the judge's rule among the candidates that "
+            "reach it chooses " + design_name(under["chosen"]) + ".</p>"
+        )
+    return (
+        f"<p><strong>Under the instrument assumed, no candidate reaches the SNR "
+        f"target ({target}) at its detection limit.</strong> The choice stands "
+        "on the estimate; it needs its exposure to grow "
+        + src.num(JUDGE, "/choice_under_instrument/judged_exposure_factor",
+                  digits=3)
+        + "x (the instrument changes that buy it are in the SNR table above). "
+        "The candidate needing the least, "
+        + design_name(under["least_exposure"]) + ", needs "
+        + src.num(JUDGE, "/choice_under_instrument/least_exposure_factor",
+                  digits=3)
+        + "x. " + esc(res["instrument"]["note"]) + ".</p>"
+    )  # fmt: skip
 
 
 def _versus_references(src: Sources, res: dict) -> str:

@@ -57,6 +57,32 @@ def readme_text(result: dict) -> str:
             f"{_spread(v['estimation'])}, classification "
             f"{_spread(v['classification'])} (negative: ours better)"
         )
+    under = result.get("choice_under_instrument")
+    if under is not None:
+        inst = result["instrument"]
+        target = inst["snr_target"]
+        if under["chosen"] is not None:
+            lines += ["", f"**Under the instrument** (SNR {target:g} at every "
+                      f"band's detection limit): {under['chosen']}."]  # fmt: skip
+        else:
+            lines += [
+                "",
+                f"**Under the instrument** no candidate reaches SNR {target:g} at "
+                f"its detection limit; the choice needs "
+                f"{under['judged_exposure_factor']:.3g}x the exposure, the least "
+                f"any candidate needs is {under['least_exposure_factor']:.3g}x "
+                f"({under['least_exposure']}).",
+            ]
+        lines += [
+            "",
+            "| band set | limiting band | SNR at the limit | exposure factor |",
+            "|---|---|---|---|",
+        ]
+        for b, v in inst["band_sets"].items():
+            lines.append(
+                f"| {b} | {v['limiting_band']} | {v['snr_at_limit']:.2f} | "
+                f"{v['exposure_factor']:.3g} |"
+            )
     if "interval_note" in result:
         lines += ["", f"Intervals: {result['interval_note']}."]
     return "\n".join(lines) + "\n"

@@ -37,10 +37,12 @@ from .. import robustness as rb
 from ..estimate import METRICS
 from ..folds import paired_lamp_ci
 from ..provenance import write_manifest
+from ..radiometry import RadiometryConfig
 from ..results import RESULTS_DIR, update_recommendation
 from ..sensor import BandSet
 from ..sensor.reference import load_band_set
 from ..strict_json import strict_dumps
+from ._judge_instrument import choose_under_instrument, instrument_check
 from ._judge_outputs import figure, readme_text, trade_figure
 
 
@@ -445,6 +447,7 @@ def run(
     partitions: int = 4,
     only_partitions: Sequence[int] | None = None,
     resume: bool = False,
+    instrument: RadiometryConfig | bool = True,
     log: Callable[[str], None] = lambda msg: None,
     **study_kwargs,
 ) -> dict | None:
@@ -456,7 +459,9 @@ def run(
     `results/recommendation.json` when `out` is the shipped `OUT`, else in
     `out/recommendation.json`) and the manifest. With
     `only_partitions`, only those units are computed and nothing is
-    summarised (returns None); a later `resume=True` run joins them."""
+    summarised (returns None); a later `resume=True` run joins them.
+    `instrument`: the radiometry configuration of the instrument check
+    (`_judge_instrument`; True: `make radiometry`'s, False: none)."""
     out = Path(out)
     cands = candidates(search)
     cand_dir = out / "candidates"
@@ -498,6 +503,17 @@ def run(
     result["narrowest_fwhm_nm"] = {
         label: float(np.min(load_band_set(src).fwhm_nm)) for label, src in band_sets
     }
+    if instrument is not False:
+        config = None if instrument is True else instrument
+        inst = instrument_check(band_sets, config=config, log=log)
+        loss = result["losses"]
+        result["instrument"] = inst
+        result["choice_under_instrument"] = choose_under_instrument(
+            inst,
+            [b for b, _ in band_sets if b not in REFERENCES],
+            lambda meeting: choose({b: loss[b] for b in meeting}, n_bands)["chosen"],
+            result["choice"]["chosen"],
+        )
     (out / "summary.json").write_text(strict_dumps(summary, indent=2) + "\n")
     (out / "judge.json").write_text(strict_dumps(result, indent=2) + "\n")
     figure(result, out / "judge.png")
