@@ -283,7 +283,8 @@ def test_committed_instrument_check_is_the_radiometrys():
     from pathlib import Path
 
     res = json.loads(Path("results/judge/judge.json").read_text())
-    rows = list(csv.DictReader(Path("results/radiometry/limits.csv").open()))
+    text = Path("results/radiometry/limits.csv").read_text()
+    rows = list(csv.DictReader(text.splitlines()))
     rad = json.loads(Path("results/radiometry/summary.json").read_text())
     names = {"ours": res["choice"]["chosen"], "nightsat": "nightsat",
              "sdgsat-1": "sdgsat-1"}  # fmt: skip
@@ -293,8 +294,8 @@ def test_committed_instrument_check_is_the_radiometrys():
         assert mine, rad_name
         v = res["instrument"]["band_sets"][label]
         assert v["snr_at_limit"] == pytest.approx(
-            min(float(r["snr_at_limit"]) for r in mine), rel=1e-6
-        )
+            min(float(r["snr_at_limit"]) for r in mine), rel=1e-4
+        )  # the CSV's five significant digits
         assert v["exposure_factor"] == pytest.approx(
-            max(float(r["exposure_factor_for_snr_target"]) for r in mine), rel=1e-6
+            max(float(r["exposure_factor_for_snr_target"]) for r in mine), rel=1e-4
         )
