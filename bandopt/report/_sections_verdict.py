@@ -376,10 +376,10 @@ def _judge_table(src: Sources) -> str:
             src.image(
                 "judge/trade.png",
                 "The trade the loss does not weigh: the shipped estimator's "
-                "error against the median SNR of its weakest band over the search's "
-                "scenes (class P4, shot noise; not the SNR at the detection limit "
-                "above), coloured "
-                "by the narrowest band's FWHM (results/judge/trade.png)",
+                "error against the SNR of each band set's limiting band at its "
+                "detection limit (the instrument check above; dashed: the SNR "
+                "target), coloured by the narrowest band's FWHM "
+                "(results/judge/trade.png)",
             )
             if src.exists("judge/trade.png")
             else ""

@@ -99,17 +99,24 @@ def _spread(d: dict) -> str:
 
 def trade_figure(result: dict, path: Path) -> None:
     """The trade the loss does not weigh: each judged band set's estimation
-    error e and loss J against its median SNR (weakest band, the search's
-    class P4 scenes, shot noise: `snr_medians`), coloured
-    by its narrowest band's FWHM (a narrow band is a dim band), the chosen
-    design and the search's pick marked. Band sets without an SNR in
-    `compare.json` are left out."""
+    error e and loss J against its SNR, coloured by its narrowest band's FWHM
+    (a narrow band is a dim band), the chosen design and the search's pick
+    marked. The SNR is the instrument check's (the limiting band's at its
+    detection limit, `result["instrument"]`, with the SNR target drawn), or
+    without it the search's median over its class P4 scenes (`snr_medians`);
+    band sets without one are left out."""
     import matplotlib  # plotting only: start-up time
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # after matplotlib.use("Agg")
 
-    snr = result.get("snr_median", {})
+    inst = result.get("instrument")
+    if inst is not None:
+        snr = {b: v["snr_at_limit"] for b, v in inst["band_sets"].items()}
+        xlabel = "SNR of the limiting band at its detection limit (make radiometry)"
+    else:
+        snr = result.get("snr_median", {})
+        xlabel = "median SNR of the weakest band (class P4 scenes, shot noise)"
     fwhm = result.get("narrowest_fwhm_nm", {})
     sets = [b for b in result["losses"] if snr.get(b) and b in fwhm]
     from matplotlib.ticker import NullFormatter, ScalarFormatter  # plotting only
@@ -138,9 +145,16 @@ def trade_figure(result: dict, path: Path) -> None:
         ax.set_xscale("log")
         ax.xaxis.set_major_formatter(ScalarFormatter())
         ax.xaxis.set_minor_formatter(NullFormatter())
-        ax.set_xticks([t for t in (0.5, 1, 2, 5, 10, 20, 50)
-                       if min(x) / 1.5 <= t <= max(x) * 1.5])  # fmt: skip
-        ax.set_xlabel("median SNR of the weakest band (class P4 scenes, shot noise)")
+        ticks = (0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 50)
+        hi = max(x) * 1.5
+        if inst is not None:
+            ax.axvline(inst["snr_target"], color="C3", ls="--", lw=1)
+            ax.annotate("SNR target", (inst["snr_target"], 1.0), fontsize=7,
+                        xycoords=("data", "axes fraction"), xytext=(3, -10),
+                        textcoords="offset points", color="C3")  # fmt: skip
+            hi = max(hi, inst["snr_target"] * 1.5)
+        ax.set_xticks([t for t in ticks if min(x) / 1.5 <= t <= hi])
+        ax.set_xlabel(xlabel)
         ax.set_title(title, fontsize=9)
         ax.grid(alpha=0.3)
     fig.colorbar(sc, ax=axes, label="narrowest band FWHM [nm]")
