@@ -793,3 +793,24 @@ def test_a_judged_design_shows_the_shipped_estimators_tolerances(small, tmp_path
     assert got["/leakage/fails_at/1"] == "0.01"
     assert "&ge; " in text or "≥ " in text  # an open end
     assert "shipped estimator's own scan" in text
+
+
+def test_classification_section_tabulates_its_own_bands_and_says_why(built):
+    """The classification study's own band set is tabulated (centre and
+    FWHM of each band, from its summary), named as not the recommended design
+    with the reason, and the recommended design's F1 from the same study is
+    beside it."""
+    res, _ = built
+    text = res.path.read_text()
+    start = text.index('<section id="classification">')
+    section = text[start : text.index("</section>", start)]
+    summary = json.loads((RESULTS / "classify/summary.json").read_text())
+    bands = summary["recommended"]["bands"]["band_set"]["bands"]
+    assert "it is not the recommended design" in section
+    for i, b in enumerate(bands):
+        ptr = f"/recommended/bands/band_set/bands/{i}/fwhm_nm"
+        assert f'data-ptr="{ptr}" data-value="{b["fwhm_nm"]!r}"' in section
+    row = next(i for i, r in enumerate(summary["reference_sensors"])
+               if r["sensor"] in ("recommended design", "spectral (issue 5)")
+               and r["noise"])  # fmt: skip
+    assert f'data-ptr="/reference_sensors/{row}/level2_macro_f1"' in section

@@ -173,7 +173,7 @@ def write_report(out: Path, d: dict) -> Path:
     def f(x):
         return "-" if x is None else f"{x:.3f}"
 
-    lines = ["# Lamp-type classification (issue 6)", ""]
+    lines = ["# Lamp-type classification", ""]
     sc = d["scenarios"]
     ecfg = sc["evaluation"]
     lines += [

@@ -216,7 +216,7 @@ def _reference_rows(table_eval, spectral, budget, log) -> list[dict]:
     ref_rows = []
     candidates = [(k, reference_sensor(k)) for k in REFERENCE_SENSORS]
     if spectral is not None:
-        candidates.append(("spectral (issue 5)", spectral))
+        candidates.append(("recommended design", spectral))
     for name, b in candidates:
         for noise in (True, False):
             ev = evaluate_band_set(
@@ -270,11 +270,11 @@ def _influence(table_eval, rec_bands, spectral, budget, log):
             f"others {r.macro_f1_others:.3f}"
         )
     est_bands, est_label = (
-        (spectral, "issue-5 spectral recommendation")
+        (spectral, "the recommended design (recommendation.json 'spectral')")
         if spectral is not None
         else (
             rec_bands,
-            "classification bands (no issue-5 spectral recommendation yet)",
+            "classification bands (no recommended design in recommendation.json yet)",
         )
     )
     est = influence_estimates(table_eval, est_bands, factors, **kw)
