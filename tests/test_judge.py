@@ -98,6 +98,14 @@ KEEP = ("n2+pan a=0", "n3+pan a=0.5")
 """The two candidates the tiny study judges."""
 
 
+SMALL_RADIOMETRY = RadiometryConfig.quick(
+    surfaces=("asphalt",), classes=("P6", "C0"), moons=(None,),
+    fire_temperatures_k=(700.0,),
+)  # fmt: skip
+"""The instrument check's scene distribution in the tiny study: one surface,
+the dimmest and a bright class, no Moon (seconds, not minutes)."""
+
+
 def test_the_tiny_study_writes_a_verdict_that_agrees_with_its_rows(
     tmp_path, monkeypatch
 ):
@@ -111,7 +119,7 @@ def test_the_tiny_study_writes_a_verdict_that_agrees_with_its_rows(
         tmp_path, partitions=2, preset="tiny", atmospheres="none",
         lamps_per_class=2, config=LIGHT,
         perturbations=(Perturbation("clean"), Perturbation("mixture", 0.1)),
-        instrument=RadiometryConfig.quick(),
+        instrument=SMALL_RADIOMETRY,
     )  # fmt: skip
     assert set(result["losses"]) == {"n2+pan a=0", "n3+pan a=0.5", "nightsat"}
     assert result["choice"]["chosen"] in ("n2+pan a=0", "n3+pan a=0.5")
