@@ -119,6 +119,8 @@ def trade_figure(result: dict, path: Path) -> None:
         xlabel = "median SNR of the weakest band (class P4 scenes, shot noise)"
     fwhm = result.get("narrowest_fwhm_nm", {})
     sets = [b for b in result["losses"] if snr.get(b) and b in fwhm]
+    if not sets:  # no band set has an SNR: nothing to draw, no file
+        return
     from matplotlib.ticker import NullFormatter, ScalarFormatter  # plotting only
 
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.4), sharex=True, layout="constrained")
