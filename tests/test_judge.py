@@ -147,16 +147,16 @@ def test_the_tiny_study_writes_a_verdict_that_agrees_with_its_rows(
         records = [json.loads(x) for x in fh]
     per_lamp = judge.lamp_losses(records, result["truth_sd"])
     chosen = result["choice"]["chosen"]
-    units = sorted({k[1:3] for k in per_lamp if k != "classes" and k[0] == chosen})
+    units = sorted({k[1:3] for k in per_lamp.losses if k[0] == chosen})
     diff = np.asarray([
-        np.mean([np.subtract(v, per_lamp[("nightsat", *k[1:])])
-                 for k, v in per_lamp.items()
-                 if k != "classes" and k[0] == chosen and k[1:3] == u], axis=0)
+        np.mean([np.subtract(v, per_lamp.losses[("nightsat", *k[1:])])
+                 for k, v in per_lamp.losses.items()
+                 if k[0] == chosen and k[1:3] == u], axis=0)
         for u in units
     ])  # fmt: skip
     obs = {
         "lamps": [u[0] for u in units],
-        "classes": [per_lamp["classes"][u[0]] for u in units],
+        "classes": [per_lamp.classes[u[0]] for u in units],
         "groups": [u[1] for u in units],
     }
     for i, part in enumerate(judge.PARTS):

@@ -30,6 +30,7 @@ import json
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -215,33 +216,41 @@ INTERVAL_NOTE = (
 """What a `ci95` of `paired` is."""
 
 
-def lamp_losses(records: Sequence[dict], truth_sd: dict) -> dict:
+class LampLosses(NamedTuple):
+    """`lamp_losses`: J, e and c per (band set, lamp, partition, row), and
+    each lamp's level-2 class."""
+
+    losses: dict[tuple, tuple[float, float, float]]
+    classes: dict[str, str]
+
+
+def lamp_losses(records: Sequence[dict], truth_sd: dict) -> LampLosses:
     """Per (band set, lamp, partition, row) of `records` (robustness records:
     one per held-out lamp), that lamp's J, e and c (module docstring), and
-    per lamp its level-2 class (key `"classes"`). A record without every
-    metric (a lamp whose every pixel was flagged `unexplained`) has no loss."""
-    out: dict = {"classes": {}}
+    per lamp its level-2 class. A record without every metric (a lamp whose
+    every pixel was flagged `unexplained`) has no loss."""
+    out = LampLosses({}, {})
     for r in records:
         if any(r.get(m) is None for m in METRICS):
             continue
         e = float(np.mean([float(r[m]) / truth_sd[m] for m in METRICS]))
         c = 1.0 - 0.5 * (float(r["level1_correct"]) + float(r["level2_correct"]))
         key = (r["band_set"], r["lamp"], r["partition"], r["perturbation"])
-        out[key] = (0.5 * (e + c), e, c)
-        out["classes"][r["lamp"]] = r["level2"]
+        out.losses[key] = (0.5 * (e + c), e, c)
+        out.classes[r["lamp"]] = r["level2"]
     return out
 
 
-def _lamp_ci(per_lamp: dict, ours: str, other: str) -> dict:
+def _lamp_ci(per_lamp: LampLosses, ours: str, other: str) -> dict:
     """Per part, the 95 % interval of the paired difference ours - other
     (`paired_lamp_ci`: per partition class-balanced over held-out lamps,
     then the mean over partitions), each (lamp, partition) its mean over the
     rows both band sets have a loss in (`lamp_losses`)."""
     diffs: dict[tuple, list] = {}
-    for key, v in per_lamp.items():
-        if key == "classes" or key[0] != ours:
+    for key, v in per_lamp.losses.items():
+        if key[0] != ours:
             continue
-        w = per_lamp.get((other, *key[1:]))
+        w = per_lamp.losses.get((other, *key[1:]))
         if w is not None:
             diffs.setdefault(key[1:3], []).append(np.subtract(v, w))
     if not diffs:
@@ -251,7 +260,7 @@ def _lamp_ci(per_lamp: dict, ours: str, other: str) -> dict:
     lamps = [k[0] for k in keys]
     obs = {
         "lamps": lamps,
-        "classes": [per_lamp["classes"][x] for x in lamps],
+        "classes": [per_lamp.classes[x] for x in lamps],
         "groups": [k[1] for k in keys],
     }
     out = {}
@@ -262,7 +271,7 @@ def _lamp_ci(per_lamp: dict, ours: str, other: str) -> dict:
 
 
 def paired(
-    loss: dict, ours: str, others: Sequence[str], per_lamp: dict | None = None
+    loss: dict, ours: str, others: Sequence[str], per_lamp: LampLosses | None = None
 ) -> dict:
     """Paired differences ours - other in J, e and c, per partition: mean and
     SD (negative: ours is better); with `per_lamp` (`lamp_losses`) also the
